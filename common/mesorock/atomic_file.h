@@ -1,0 +1,46 @@
+#pragma once
+// Write-to-temporary-then-rename, so a failed run never leaves a half-written output behind.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+
+#include "mesorock/errors.h"
+
+namespace mesorock {
+
+// Temporary name next to the target (same filesystem, so rename is atomic).
+inline std::filesystem::path temporary_path_for(const std::filesystem::path& target) {
+  return target.parent_path() / ("." + target.filename().string() + ".partial");
+}
+
+// Calls write(tmp) with a temporary path, then renames it over `target`. On any exception the
+// temporary file is removed and the exception propagates; `target` is untouched.
+inline void write_atomically(const std::filesystem::path& target,
+                             const std::function<void(const std::filesystem::path&)>& write) {
+  const auto tmp = temporary_path_for(target);
+  try {
+    write(tmp);
+    std::error_code ec;
+    std::filesystem::rename(tmp, target, ec);
+    if (ec) throw IoError(target.string() + ": cannot rename temporary file: " + ec.message());
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw;
+  }
+}
+
+// Convenience for text files.
+inline void write_text_atomically(const std::filesystem::path& target, const std::string& text) {
+  write_atomically(target, [&](const std::filesystem::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw IoError(target.string() + ": cannot open for writing");
+    out << text;
+    out.close();
+    if (!out) throw IoError(target.string() + ": write failed");
+  });
+}
+
+}  // namespace mesorock

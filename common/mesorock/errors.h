@@ -1,0 +1,44 @@
+#pragma once
+// Typed exceptions (OpenVDB Exceptions.h style). Library code throws these and never exits;
+// only the executables' main() maps them to exit codes (see pipeline/exit_codes.h).
+#include <stdexcept>
+#include <string>
+
+namespace mesorock {
+
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Bad user input: a scene key, a command-line value, a label map. Exit code 2.
+class ConfigError : public Error {
+ public:
+  using Error::Error;
+};
+
+// A file that is missing, unreadable, truncated or inconsistent with its header. Exit code 2.
+class IoError : public Error {
+ public:
+  using Error::Error;
+};
+
+// A backend that was asked for but is not available (no GPU, no CUDA build). Exit code 2.
+class DeviceError : public Error {
+ public:
+  using Error::Error;
+};
+
+// The simulation left the physically meaningful range (NaN, runaway velocity). Exit code 3.
+class NumericalError : public Error {
+ public:
+  using Error::Error;
+};
+
+// A request that would exceed a resource limit the user can raise (memory, particle count).
+class LimitError : public Error {
+ public:
+  using Error::Error;
+};
+
+}  // namespace mesorock

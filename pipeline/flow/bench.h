@@ -1,0 +1,33 @@
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "sim/model.h"
+#include "sim/simulation.h"
+
+namespace mesorock::pipeline {
+
+struct BenchOptions {
+  std::string case_name = "bulk";  // bulk | porous
+  std::int64_t particles = 200000;
+  std::uint64_t steps = 200;
+  sim::Precision precision = sim::Precision::Single;
+  sim::SimulationOptions sim;
+};
+
+struct BenchResult {
+  std::string case_name, backend, precision, pass_name;
+  std::int64_t particles = 0;
+  std::uint64_t steps = 0;
+  int threads = 0;
+  double seconds = 0;
+  double mps = 0;  // million particle-steps per second
+  double setup_seconds = 0;
+};
+
+// Builds the case, runs steps/10 (at least 5) warm-up steps, then times `steps` steps.
+BenchResult run_bench(const BenchOptions& o);
+std::string format_bench_json(const BenchResult& r);
+std::string format_bench_text(const BenchResult& r);
+
+}  // namespace mesorock::pipeline

@@ -1,0 +1,93 @@
+#pragma once
+// Built-in physics validation cases (`rockflow validate`). Each measured quantity states its
+// reference value, where that comes from, and the tolerance; a case passes when every quantity
+// does.
+#include <cmath>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "sim/model.h"
+#include "sim/simulation.h"
+
+namespace mesorock::pipeline {
+
+enum class Comparison { Within, AtLeast, AtMost };
+
+struct Quantity {
+  std::string name;
+  double measured = 0;
+  double error = 0;  // one standard error (block averages), 0 where not statistical
+  double reference = 0;
+  double tolerance = 0;  // Within: |measured - reference| <= tolerance
+  Comparison comparison = Comparison::Within;
+  std::string source;  // where the reference comes from
+  bool pass = false;
+
+  void judge() {
+    switch (comparison) {
+      case Comparison::Within:
+        pass = std::abs(measured - reference) <= tolerance;
+        break;
+      case Comparison::AtLeast:
+        pass = measured >= reference;
+        break;
+      case Comparison::AtMost:
+        pass = measured <= reference;
+        break;
+    }
+  }
+};
+
+// A judged quantity: `source` says where the reference value comes from.
+inline Quantity judged(std::string name, double measured, double error, double reference,
+                       double tolerance, std::string source,
+                       Comparison comparison = Comparison::Within) {
+  Quantity q;
+  q.name = std::move(name);
+  q.measured = measured;
+  q.error = error;
+  q.reference = reference;
+  q.tolerance = tolerance;
+  q.comparison = comparison;
+  q.source = std::move(source);
+  q.judge();
+  return q;
+}
+
+struct CaseResult {
+  std::string name;
+  std::vector<Quantity> quantities;
+  std::vector<std::string> notes;  // e.g. "rho = 4: phase-separated; no EOS point reported"
+  double seconds = 0;
+  bool pass() const {
+    if (quantities.empty()) return false;
+    for (const auto& q : quantities)
+      if (!q.pass) return false;
+    return true;
+  }
+};
+
+enum class CaseSize { Small, Full };
+
+struct ValidateOptions {
+  CaseSize size = CaseSize::Small;
+  sim::DensityKernelKind density_kernel = sim::DensityKernelKind::Warren;
+  sim::SimulationOptions sim;
+  bool verbose = true;  // progress lines on stderr
+};
+
+struct ValidationCase {
+  std::string name;
+  std::string summary;
+  std::function<CaseResult(const ValidateOptions&)> run;
+};
+
+const std::vector<ValidationCase>& validation_cases();
+const ValidationCase* find_validation_case(const std::string& name);
+
+// Text table and the JSON object of the --json flag.
+std::string format_case_text(const CaseResult& r);
+std::string format_case_json(const CaseResult& r);
+
+}  // namespace mesorock::pipeline

@@ -1,0 +1,152 @@
+// rockflow: run a scene, validate the physics, benchmark the solver.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <iostream>
+
+#include "mesorock/errors.h"
+#include "mesorock/version.h"
+#include "pipeline/exit_codes.h"
+#include "pipeline/flow/bench.h"
+#include "pipeline/flow/run_scene.h"
+#include "pipeline/flow/validation.h"
+#include "pipeline/scene.h"
+
+namespace mp = mesorock::pipeline;
+namespace ms = mesorock::sim;
+
+namespace {
+
+ms::BackendKind parse_backend(const std::string& s) {
+  if (s == "cpu") return ms::BackendKind::CPU;
+  if (s == "cuda") return ms::BackendKind::CUDA;
+  throw mesorock::ConfigError("--backend must be cpu or cuda (got " + s + ")");
+}
+
+// Fails early, with one line, when CUDA is asked for but absent (never a silent fall-back).
+void require_backend(ms::BackendKind b) {
+  if (b != ms::BackendKind::CUDA) return;
+  const std::string why = ms::cuda_unavailable_reason();
+  if (!why.empty()) throw mesorock::DeviceError(why);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return mp::run_main("rockflow", [&]() -> int {
+    CLI::App app{"rockflow: the mesorock mDPD flow solver"};
+    app.set_version_flag("--version", std::string("rockflow ") + mesorock::kVersion + " (" +
+                                          mesorock::kGitCommit + ")");
+    app.require_subcommand(1);
+
+    std::string backend = "cpu";
+    int threads = 0;
+
+    auto* run = app.add_subcommand("run", "run a scene file");
+    std::string scene_path, out_dir = "out";
+    run->add_option("scene", scene_path, "scene file (TOML, see docs/scene.md)")->required();
+    run->add_option("--out", out_dir, "output folder")->capture_default_str();
+    run->add_option("--backend", backend, "cpu or cuda")->capture_default_str();
+    run->add_option("--threads", threads, "CPU threads (0: all cores)")->check(CLI::NonNegativeNumber);
+
+    auto* val = app.add_subcommand("validate", "run a built-in physics validation case");
+    std::string case_name, size = "small", kernel = "warren";
+    bool list = false, json = false;
+    val->add_option("case", case_name, "case name (see --list)");
+    val->add_flag("--list", list, "print the case names, one per line");
+    val->add_option("--size", size, "small (CI) or full")->check(CLI::IsMember({"small", "full"}));
+    val->add_option("--density-kernel", kernel, "warren or lucy")
+        ->check(CLI::IsMember({"warren", "lucy"}));
+    val->add_option("--backend", backend, "cpu or cuda");
+    val->add_option("--threads", threads, "CPU threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    val->add_flag("--json", json, "print one JSON object");
+
+    auto* bench = app.add_subcommand("bench", "measure million particle-steps per second");
+    mp::BenchOptions bo;
+    std::string precision = "single";
+    bool bench_json = false, compare_cpu = false;
+    bench->add_option("--case", bo.case_name, "bulk or porous")
+        ->check(CLI::IsMember({"bulk", "porous"}))
+        ->capture_default_str();
+    bench->add_option("--particles", bo.particles, "particle count")->capture_default_str();
+    bench->add_option("--steps", bo.steps, "timed steps")->capture_default_str();
+    bench->add_option("--backend", backend, "cpu or cuda");
+    bench->add_option("--threads", threads, "CPU threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    bench->add_option("--precision", precision, "single or double")
+        ->check(CLI::IsMember({"single", "double"}));
+    bench->add_flag("--compare-cpu", compare_cpu, "also run the CPU backend on the same case");
+    bench->add_flag("--json", bench_json, "print JSON");
+
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      const int code = app.exit(e);
+      return code == 0 ? 0 : mp::kExitBadInput;
+    }
+
+    ms::SimulationOptions so;
+    so.backend = parse_backend(backend);
+    so.threads = threads;
+
+    if (*run) {
+      require_backend(so.backend);
+      const mp::Scene scene = mp::load_scene(scene_path);
+      mp::RunOptions ro;
+      ro.out_dir = out_dir;
+      ro.sim = so;
+      mp::run_scene(scene, ro);
+      return mp::kExitOk;
+    }
+
+    if (*val) {
+      if (list) {
+        for (const auto& c : mp::validation_cases()) std::cout << c.name << "\n";
+        return mp::kExitOk;
+      }
+      if (case_name.empty()) throw mesorock::ConfigError("validate: name a case (see --list)");
+      const mp::ValidationCase* c = mp::find_validation_case(case_name);
+      if (!c) throw mesorock::ConfigError("validate: unknown case '" + case_name + "' (see --list)");
+      require_backend(so.backend);
+      mp::ValidateOptions vo;
+      vo.size = size == "full" ? mp::CaseSize::Full : mp::CaseSize::Small;
+      vo.density_kernel =
+          kernel == "lucy" ? ms::DensityKernelKind::Lucy : ms::DensityKernelKind::Warren;
+      vo.sim = so;
+      const auto t0 = std::chrono::steady_clock::now();
+      mp::CaseResult r = c->run(vo);
+      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::cout << (json ? mp::format_case_json(r) + "\n" : mp::format_case_text(r));
+      return r.pass() ? mp::kExitOk : mp::kExitFailed;
+    }
+
+    if (*bench) {
+      require_backend(so.backend);
+      bo.precision = precision == "double" ? ms::Precision::Double : ms::Precision::Single;
+      bo.sim = so;
+      const mp::BenchResult r = mp::run_bench(bo);
+      mp::BenchResult cpu;
+      if (compare_cpu) {
+        mp::BenchOptions co = bo;
+        co.sim.backend = ms::BackendKind::CPU;
+        co.steps = std::max<std::uint64_t>(5, bo.steps / 20);
+        cpu = mp::run_bench(co);
+      }
+      if (bench_json) {
+        std::string out = mp::format_bench_json(r);
+        if (compare_cpu) {
+          out.pop_back();
+          out += ",\"cpu\":" + mp::format_bench_json(cpu) +
+                 ",\"speedup_vs_cpu\":" + std::to_string(r.mps / cpu.mps) + "}";
+        }
+        std::cout << out << "\n";
+      } else {
+        std::cout << mp::format_bench_text(r);
+        if (compare_cpu)
+          std::cout << mp::format_bench_text(cpu) << "speed-up vs CPU: " << r.mps / cpu.mps
+                    << "x\n";
+      }
+      return mp::kExitOk;
+    }
+    return mp::kExitOk;
+  });
+}

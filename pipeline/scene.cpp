@@ -1,0 +1,703 @@
+#include "pipeline/scene.h"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include "mesorock/errors.h"
+#include "sim/init.h"
+#include "sim/particle_io.h"
+
+namespace mesorock::pipeline {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The most particles one scene may create (the solver indexes particles with 32-bit integers).
+constexpr double kMaxParticles = 2147483647.0;
+
+// ---------------------------------------------------------------------------------------------
+// Message helpers
+
+// Shortest text that reads back as the same double ("-1", "0.1", "10", "1e+15", "nan", "inf").
+std::string num(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string in_quotes(const std::string& s) {
+  return "\"" + s + "\"";
+}
+
+// "string \"abc\"", "floating-point 1.5", "integer 3", "boolean true", "array", "table", ...
+std::string describe(const toml::node& n) {
+  std::ostringstream s;
+  s << n.type();
+  if (auto v = n.as_string()) {
+    std::string text = v->get();
+    if (text.size() > 40) text = text.substr(0, 37) + "...";
+    s << " " << in_quotes(text);
+  } else if (auto i = n.as_integer()) {
+    s << " " << i->get();
+  } else if (auto f = n.as_floating_point()) {
+    s << " " << num(f->get());
+  } else if (auto b = n.as_boolean()) {
+    s << (b->get() ? " true" : " false");
+  }
+  return s.str();
+}
+
+std::string join_names(const sim::Model& m) {
+  std::string s;
+  for (const auto& t : m.types) s += (s.empty() ? "" : ", ") + t.name;
+  return s;
+}
+
+// File-order comparison of two nodes (toml::table is ordered by key, not by position).
+bool before(const toml::source_region& a, const toml::source_region& b) {
+  if (a.begin.line != b.begin.line) return a.begin.line < b.begin.line;
+  return a.begin.column < b.begin.column;
+}
+
+struct Context {
+  std::string file;  // the scene path as the user gave it (message prefix)
+  fs::path dir;      // the scene file's folder (relative paths are resolved against it)
+};
+
+[[noreturn]] void fail(const Context& c, const std::string& key, const std::string& problem) {
+  throw ConfigError(c.file + ": " + key + ": " + problem);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Typed reads of single nodes; `key` is the full key path used in messages.
+
+double number_at(const Context& c, const toml::node& n, const std::string& key) {
+  double v = 0;
+  if (auto i = n.as_integer())
+    v = static_cast<double>(i->get());
+  else if (auto f = n.as_floating_point())
+    v = f->get();
+  else
+    fail(c, key, "must be a number (got " + describe(n) + ")");
+  if (!std::isfinite(v)) fail(c, key, "must be a finite number (got " + num(v) + ")");
+  return v;
+}
+
+std::int64_t integer_at(const Context& c, const toml::node& n, const std::string& key) {
+  if (auto i = n.as_integer()) return i->get();
+  fail(c, key, "must be an integer (got " + describe(n) + ")");
+}
+
+std::string string_at(const Context& c, const toml::node& n, const std::string& key) {
+  if (auto s = n.as_string()) return s->get();
+  fail(c, key, "must be a string (got " + describe(n) + ")");
+}
+
+std::array<double, 3> vec3_at(const Context& c, const toml::node& n, const std::string& key) {
+  const toml::array* a = n.as_array();
+  if (!a) fail(c, key, "must be an array of 3 numbers (got " + describe(n) + ")");
+  if (a->size() != 3)
+    fail(c, key, "must be an array of 3 numbers (got " + std::to_string(a->size()) + " entries)");
+  std::array<double, 3> v{};
+  for (size_t i = 0; i < 3; ++i)
+    v[i] = number_at(c, *a->get(i), key + "[" + std::to_string(i) + "]");
+  return v;
+}
+
+template <class E>
+E choice_at(const Context& c, const toml::node& n, const std::string& key,
+            std::initializer_list<std::pair<const char*, E>> options) {
+  const std::string s = string_at(c, n, key);
+  std::string list;
+  for (const auto& [text, value] : options) {
+    if (s == text) return value;
+    list += (list.empty() ? "" : ", ") + in_quotes(text);
+  }
+  fail(c, key, "must be one of " + list + " (got " + in_quotes(s) + ")");
+}
+
+// ---------------------------------------------------------------------------------------------
+// One TOML table being read: every key it holds must be declared (else "unknown key", reported
+// at construction, first in file order, so a misspelt key is named before the "missing" error its
+// correct spelling would give), and every key must have been read by finish() (Mirheo's
+// checkAllRead pattern: a key the reader did not consume is reported as unknown, so no key can be
+// silently ignored).
+class Table {
+ public:
+  Table(const Context& c, const toml::table& t, std::string path,
+        std::initializer_list<const char*> known)
+      : c_(c), t_(t), path_(std::move(path)) {
+    const std::set<std::string> declared(known.begin(), known.end());
+    const auto first =
+        first_in_file_order([&](const std::string& k) { return declared.count(k) == 0; });
+    if (first) fail(c_, key(*first), "unknown key");
+  }
+
+  std::string key(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
+  const std::string& path() const { return path_; }
+  bool has(const std::string& k) const { return t_.contains(k); }
+
+  // The node under k (marked as read), or nullptr.
+  const toml::node* get(const std::string& k) {
+    const toml::node* n = t_.get(k);
+    if (n) read_.insert(k);
+    return n;
+  }
+  const toml::node& require(const std::string& k) {
+    const toml::node* n = get(k);
+    if (!n) fail(c_, key(k), "missing");
+    return *n;
+  }
+  // A key that must not appear in this context.
+  void forbid(const std::string& k, const std::string& why) {
+    if (get(k)) fail(c_, key(k), "not allowed " + why);
+  }
+
+  std::optional<double> number(const std::string& k) {
+    const toml::node* n = get(k);
+    return n ? std::optional<double>(number_at(c_, *n, key(k))) : std::nullopt;
+  }
+  std::optional<std::int64_t> integer(const std::string& k) {
+    const toml::node* n = get(k);
+    return n ? std::optional<std::int64_t>(integer_at(c_, *n, key(k))) : std::nullopt;
+  }
+  std::optional<std::string> string(const std::string& k) {
+    const toml::node* n = get(k);
+    return n ? std::optional<std::string>(string_at(c_, *n, key(k))) : std::nullopt;
+  }
+  std::optional<bool> boolean(const std::string& k) {
+    const toml::node* n = get(k);
+    if (!n) return std::nullopt;
+    if (auto b = n->as_boolean()) return b->get();
+    fail(c_, key(k), "must be a boolean (got " + describe(*n) + ")");
+  }
+  std::optional<std::array<double, 3>> vec3(const std::string& k) {
+    const toml::node* n = get(k);
+    return n ? std::optional<std::array<double, 3>>(vec3_at(c_, *n, key(k))) : std::nullopt;
+  }
+  double require_number(const std::string& k) { return number_at(c_, require(k), key(k)); }
+  std::int64_t require_integer(const std::string& k) { return integer_at(c_, require(k), key(k)); }
+  std::string require_string(const std::string& k) { return string_at(c_, require(k), key(k)); }
+  std::array<double, 3> require_vec3(const std::string& k) {
+    return vec3_at(c_, require(k), key(k));
+  }
+
+  // An optional sub-table ([name]).
+  const toml::table* table(const std::string& k) {
+    const toml::node* n = get(k);
+    if (!n) return nullptr;
+    if (auto t = n->as_table()) return t;
+    fail(c_, key(k), "must be a table ([" + key(k) + "]) (got " + describe(*n) + ")");
+  }
+  const toml::table& require_table(const std::string& k) {
+    const toml::table* t = table(k);
+    if (!t) fail(c_, key(k), "missing (a [" + key(k) + "] table is required)");
+    return *t;
+  }
+  // A required, non-empty array of tables ([[name]]).
+  std::vector<const toml::table*> require_blocks(const std::string& k) {
+    const toml::node* n = get(k);
+    if (!n) fail(c_, key(k), "missing (at least one [[" + key(k) + "]] block is required)");
+    const toml::array* a = n->as_array();
+    if (a && a->empty()) fail(c_, key(k), "at least one [[" + key(k) + "]] block is required");
+    if (!a || !a->is_array_of_tables())
+      fail(c_, key(k),
+           "must be an array of tables ([[" + key(k) + "]]) (got " + describe(*n) + ")");
+    std::vector<const toml::table*> out;
+    for (const auto& e : *a) out.push_back(e.as_table());
+    return out;
+  }
+
+  // checkAllRead: the first key (in file order) nobody read is an error.
+  void finish() const {
+    const auto first =
+        first_in_file_order([&](const std::string& k) { return read_.count(k) == 0; });
+    if (first) fail(c_, key(*first), "unknown key");
+  }
+
+ private:
+  // The key (first in the file) for which pred(key) holds, if any.
+  template <class Pred>
+  std::optional<std::string> first_in_file_order(Pred pred) const {
+    std::optional<std::string> first;
+    const toml::node* first_node = nullptr;
+    for (auto&& [k, node] : t_) {
+      const std::string name(k.str());
+      if (pred(name) && (!first_node || before(node.source(), first_node->source()))) {
+        first = name;
+        first_node = &node;
+      }
+    }
+    return first;
+  }
+
+  const Context& c_;
+  const toml::table& t_;
+  std::string path_;
+  std::set<std::string> read_;
+};
+
+std::string indexed(const std::string& name, size_t i) {
+  return name + "[" + std::to_string(i) + "]";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sections
+
+void read_box(const Context& c, Table& top, Scene& s) {
+  Table t(c, top.require_table("box"), "box", {"lo", "hi", "boundary"});
+  s.box.lo = t.require_vec3("lo");
+  s.box.hi = t.require_vec3("hi");
+  for (size_t a = 0; a < 3; ++a)
+    if (!(s.box.hi[a] > s.box.lo[a]))
+      fail(c, "box.hi",
+           "must be > box.lo on every axis (hi[" + std::to_string(a) + "] = " + num(s.box.hi[a]) +
+               " <= lo[" + std::to_string(a) + "] = " + num(s.box.lo[a]) + ")");
+  if (const toml::node* n = t.get("boundary")) {
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 3)
+      fail(c, "box.boundary",
+           "must be an array of 3 strings (got " +
+               (a ? std::to_string(a->size()) + " entries" : describe(*n)) + ")");
+    for (size_t i = 0; i < 3; ++i)
+      s.box.periodic[i] = choice_at<bool>(c, *a->get(i), indexed("box.boundary", i),
+                                          {{"periodic", true}, {"reflective", false}});
+  }
+  for (size_t a = 0; a < 3; ++a)
+    if (s.box.periodic[a] && s.box.length(static_cast<int>(a)) < 2.0)
+      fail(c, "box",
+           "a periodic edge must be at least 2 rc long (axis " + std::to_string(a) + " is " +
+               num(s.box.length(static_cast<int>(a))) + ")");
+  t.finish();
+}
+
+void read_model(const Context& c, Table& top, Scene& s) {
+  Table t(c, top.require_table("model"), "model",
+          {"conservative", "density_kernel", "rd", "thermostat", "kBT", "lambda"});
+  sim::Model& m = s.model;
+  m.conservative = choice_at<sim::ConservativeKind>(
+      c, t.require("conservative"), "model.conservative",
+      {{"mdpd", sim::ConservativeKind::MDPD}, {"dpd", sim::ConservativeKind::DPD}});
+  if (m.conservative == sim::ConservativeKind::MDPD) {
+    if (const toml::node* n = t.get("density_kernel"))
+      m.density_kernel = choice_at<sim::DensityKernelKind>(
+          c, *n, "model.density_kernel",
+          {{"warren", sim::DensityKernelKind::Warren}, {"lucy", sim::DensityKernelKind::Lucy}});
+    if (auto rd = t.number("rd")) {
+      if (!(*rd > 0 && *rd <= 1)) fail(c, "model.rd", "must be in (0, 1] (got " + num(*rd) + ")");
+      m.rd = *rd;
+    }
+  } else {
+    t.forbid("density_kernel", "when model.conservative = \"dpd\"");
+    t.forbid("rd", "when model.conservative = \"dpd\"");
+  }
+  if (auto th = t.boolean("thermostat")) m.thermostat = *th;
+  if (auto kbt = t.number("kBT")) {
+    if (!(*kbt > 0)) fail(c, "model.kBT", "must be > 0 (got " + num(*kbt) + ")");
+    m.kBT = *kbt;
+  }
+  if (auto lam = t.number("lambda")) {
+    if (!(*lam >= 0 && *lam <= 1))
+      fail(c, "model.lambda", "must be in [0, 1] (got " + num(*lam) + ")");
+    m.lambda = *lam;
+  }
+  t.finish();
+}
+
+void read_types(const Context& c, Table& top, Scene& s) {
+  const auto blocks = top.require_blocks("types");
+  if (blocks.size() > 32)
+    fail(c, "types", "at most 32 types are supported (got " + std::to_string(blocks.size()) + ")");
+  std::map<std::string, size_t> seen;
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Table t(c, *blocks[i], indexed("types", i), {"name", "frozen", "body_force"});
+    sim::TypeSpec ts;
+    ts.name = t.require_string("name");
+    if (ts.name.empty()) fail(c, t.key("name"), "must not be empty");
+    if (auto it = seen.find(ts.name); it != seen.end())
+      fail(c, t.key("name"),
+           "duplicate type name " + in_quotes(ts.name) + " (already used by types[" +
+               std::to_string(it->second) + "])");
+    seen[ts.name] = i;
+    if (auto f = t.boolean("frozen")) ts.frozen = *f;
+    if (auto bf = t.vec3("body_force")) ts.body_force = *bf;
+    t.finish();
+    s.model.add_type(ts);
+  }
+}
+
+int type_at(const Context& c, const sim::Model& m, const toml::node& n, const std::string& key) {
+  const std::string name = string_at(c, n, key);
+  const int t = m.type_index(name);
+  if (t < 0) fail(c, key, "unknown type " + in_quotes(name) + " (types: " + join_names(m) + ")");
+  return t;
+}
+
+void read_pairs(const Context& c, Table& top, Scene& s) {
+  sim::Model& m = s.model;
+  const bool mdpd = m.conservative == sim::ConservativeKind::MDPD;
+  const auto blocks = top.require_blocks("pairs");
+  const int nt = m.ntypes();
+  std::vector<long> given(static_cast<size_t>(nt * nt), -1);  // block index per unordered pair
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Table t(c, *blocks[i], indexed("pairs", i), {"types", "A", "B", "a", "gamma"});
+    const std::string tk = t.key("types");
+    const toml::node& tn = t.require("types");
+    const toml::array* arr = tn.as_array();
+    if (!arr || arr->size() != 2)
+      fail(c, tk,
+           "must be an array of 2 type names (got " +
+               (arr ? std::to_string(arr->size()) + " entries" : describe(tn)) + ")");
+    const int a = type_at(c, m, *arr->get(0), tk + "[0]");
+    const int b = type_at(c, m, *arr->get(1), tk + "[1]");
+    const size_t slot = static_cast<size_t>(std::min(a, b) * nt + std::max(a, b));
+    if (given[slot] >= 0)
+      fail(c, tk,
+           "duplicate pair (" + in_quotes(m.types[static_cast<size_t>(a)].name) + ", " +
+               in_quotes(m.types[static_cast<size_t>(b)].name) + ") (already given in pairs[" +
+               std::to_string(given[slot]) + "])");
+    given[slot] = static_cast<long>(i);
+
+    sim::PairSpec p;
+    if (mdpd) {
+      t.forbid("a", "when model.conservative = \"mdpd\" (give A and B)");
+      p.A = t.require_number("A");
+      p.B = t.require_number("B");
+      if (p.B < 0) fail(c, t.key("B"), "must be >= 0 (got " + num(p.B) + ")");
+    } else {
+      t.forbid("A", "when model.conservative = \"dpd\" (give the repulsion a)");
+      t.forbid("B", "when model.conservative = \"dpd\" (give the repulsion a)");
+      p.A = t.require_number("a");
+      if (p.A < 0)
+        fail(c, t.key("a"),
+             "must be >= 0 (a is the DPD repulsion amplitude) (got " + num(p.A) + ")");
+    }
+    if (m.thermostat) {
+      p.gamma = t.require_number("gamma");
+      if (p.gamma < 0) fail(c, t.key("gamma"), "must be >= 0 (got " + num(p.gamma) + ")");
+    } else {
+      t.forbid("gamma", "when model.thermostat = false");
+    }
+    t.finish();
+    m.set_pair(a, b, p);
+  }
+  for (int a = 0; a < nt; ++a)
+    for (int b = a; b < nt; ++b)
+      if (given[static_cast<size_t>(a * nt + b)] < 0)
+        fail(c, "pairs",
+             "missing pair (" + in_quotes(m.types[static_cast<size_t>(a)].name) + ", " +
+                 in_quotes(m.types[static_cast<size_t>(b)].name) +
+                 ") (every pair of types needs one [[pairs]] block)");
+}
+
+void check_particle_estimate(const Context& c, const std::string& key, double n) {
+  if (n > kMaxParticles)
+    fail(c, key,
+         "would create " + num(std::round(n)) + " particles, more than the limit of " +
+             num(kMaxParticles));
+}
+
+void read_init(const Context& c, Table& top, Scene& s) {
+  const auto blocks = top.require_blocks("init");
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Table t(c, *blocks[i], indexed("init", i),
+            {"kind", "type", "density", "count", "lo", "hi", "file"});
+    InitSpec in;
+    in.kind = choice_at<InitSpec::Kind>(c, t.require("kind"), t.key("kind"),
+                                        {{"random", InitSpec::Kind::Random},
+                                         {"lattice", InitSpec::Kind::Lattice},
+                                         {"file", InitSpec::Kind::File}});
+    in.lo = s.box.lo;
+    in.hi = s.box.hi;
+    if (in.kind == InitSpec::Kind::File) {
+      for (const char* k : {"type", "density", "count", "lo", "hi"})
+        t.forbid(k, "when kind = \"file\"");
+      const std::string f = t.require_string("file");
+      if (f.empty()) fail(c, t.key("file"), "must not be empty");
+      in.file = fs::path(f).is_absolute() ? fs::path(f) : c.dir / f;
+      std::error_code ec;
+      if (!fs::exists(in.file, ec)) fail(c, t.key("file"), "no such file: " + in.file.string());
+      if (!fs::is_regular_file(in.file, ec))
+        fail(c, t.key("file"), "not a regular file: " + in.file.string());
+    } else {
+      const bool random = in.kind == InitSpec::Kind::Random;
+      const char* kind_text = random ? "when kind = \"random\"" : "when kind = \"lattice\"";
+      t.forbid("file", kind_text);
+      if (!random) t.forbid("count", kind_text);
+      in.type = string_at(c, t.require("type"), t.key("type"));
+      type_at(c, s.model, *t.get("type"), t.key("type"));
+      if (auto lo = t.vec3("lo")) in.lo = *lo;
+      if (auto hi = t.vec3("hi")) in.hi = *hi;
+      for (size_t a = 0; a < 3; ++a) {
+        const std::string ax = "[" + std::to_string(a) + "]";
+        if (in.lo[a] < s.box.lo[a])
+          fail(c, t.key("lo"),
+               "region must lie inside the box (lo" + ax + " = " + num(in.lo[a]) + " < box.lo" +
+                   ax + " = " + num(s.box.lo[a]) + ")");
+        if (in.hi[a] > s.box.hi[a])
+          fail(c, t.key("hi"),
+               "region must lie inside the box (hi" + ax + " = " + num(in.hi[a]) + " > box.hi" +
+                   ax + " = " + num(s.box.hi[a]) + ")");
+        if (!(in.hi[a] > in.lo[a]))
+          fail(c, t.key("hi"),
+               "must be > lo on every axis (hi" + ax + " = " + num(in.hi[a]) + " <= lo" + ax +
+                   " = " + num(in.lo[a]) + ")");
+      }
+      const double volume = (in.hi[0] - in.lo[0]) * (in.hi[1] - in.lo[1]) * (in.hi[2] - in.lo[2]);
+      in.density = t.number("density");
+      if (random) in.count = t.integer("count");
+      if (in.density && in.count) fail(c, t.key("count"), "give either density or count, not both");
+      if (!in.density && !in.count)
+        fail(c, t.key("density"), random ? "missing (give density or count)" : "missing");
+      if (in.density) {
+        if (!(*in.density > 0))
+          fail(c, t.key("density"), "must be > 0 (got " + num(*in.density) + ")");
+        double n = *in.density * volume;
+        if (!random) {  // the lattice fill_lattice will build
+          const double spacing = std::cbrt(1.0 / *in.density);
+          n = 1;
+          for (size_t a = 0; a < 3; ++a)
+            n *= std::max(1.0, std::round((in.hi[a] - in.lo[a]) / spacing));
+        }
+        check_particle_estimate(c, t.key("density"), n);
+      } else {
+        if (*in.count < 0)
+          fail(c, t.key("count"), "must be >= 0 (got " + std::to_string(*in.count) + ")");
+        check_particle_estimate(c, t.key("count"), static_cast<double>(*in.count));
+      }
+    }
+    t.finish();
+    s.init.push_back(std::move(in));
+  }
+}
+
+void read_stages(const Context& c, Table& top, Scene& s) {
+  const auto blocks = top.require_blocks("run");
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Table t(c, *blocks[i], indexed("run", i), {"name", "steps", "dt"});
+    StageSpec st;
+    st.name = t.string("name").value_or("stage" + std::to_string(i + 1));
+    if (st.name.empty()) fail(c, t.key("name"), "must not be empty");
+    const std::int64_t steps = t.require_integer("steps");
+    if (steps < 0) fail(c, t.key("steps"), "must be >= 0 (got " + std::to_string(steps) + ")");
+    st.steps = static_cast<std::uint64_t>(steps);
+    st.dt = t.require_number("dt");
+    if (!(st.dt > 0 && st.dt <= 0.1))
+      fail(c, t.key("dt"), "must be > 0 and <= 0.1 (got " + num(st.dt) + ")");
+    t.finish();
+    s.stages.push_back(std::move(st));
+  }
+}
+
+void read_output(const Context& c, Table& top, Scene& s) {
+  const toml::table* tbl = top.table("output");
+  if (!tbl) return;
+  Table t(c, *tbl, "output", {"thermo_every", "snapshot_every", "final_snapshot"});
+  for (auto [key, target] : {std::pair{"thermo_every", &s.output.thermo_every},
+                             std::pair{"snapshot_every", &s.output.snapshot_every}}) {
+    if (auto v = t.integer(key)) {
+      if (*v < 0) fail(c, t.key(key), "must be >= 0 (got " + std::to_string(*v) + ")");
+      *target = static_cast<std::uint64_t>(*v);
+    }
+  }
+  if (auto f = t.boolean("final_snapshot")) s.output.final_snapshot = *f;
+  t.finish();
+}
+
+std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+std::string box_text(const sim::BoxSpec& b) {
+  std::string s;
+  for (size_t a = 0; a < 3; ++a) s += (a ? " x [" : "[") + num(b.lo[a]) + ", " + num(b.hi[a]) + "]";
+  return s;
+}
+
+}  // namespace
+
+std::uint64_t init_block_seed(std::uint64_t seed, std::size_t block) {
+  return splitmix64(seed ^ splitmix64(static_cast<std::uint64_t>(block) + 1));
+}
+
+std::uint64_t init_velocity_seed(std::uint64_t seed) {
+  return splitmix64(seed ^ splitmix64(0));
+}
+
+Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
+  const Context c{path_for_messages.string(), path_for_messages.parent_path()};
+  toml::table root;
+  try {
+    root = toml::parse(text, path_for_messages.string());
+  } catch (const toml::parse_error& e) {
+    // toml++ messages may span lines; the contract is one line per error.
+    std::string desc(e.description());
+    for (char& ch : desc)
+      if (ch == '\n' || ch == '\r' || ch == '\t') ch = ' ';
+    desc.erase(
+        std::unique(desc.begin(), desc.end(), [](char a, char b) { return a == ' ' && b == ' '; }),
+        desc.end());
+    while (!desc.empty() && desc.back() == ' ') desc.pop_back();
+    throw ConfigError(c.file + ": line " + std::to_string(e.source().begin.line) + ": " + desc);
+  }
+
+  Scene s;
+  s.path = path_for_messages;
+  s.source_text = text;
+  Table top(
+      c, root, "",
+      {"name", "seed", "precision", "box", "model", "types", "pairs", "init", "run", "output"});
+  const std::string stem = path_for_messages.stem().string();
+  s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
+  if (s.name.empty()) fail(c, "name", "must not be empty");
+  if (auto seed = top.integer("seed")) {
+    if (*seed < 0) fail(c, "seed", "must be >= 0 (got " + std::to_string(*seed) + ")");
+    s.model.seed = static_cast<std::uint64_t>(*seed);
+  }
+  if (const toml::node* n = top.get("precision"))
+    s.model.precision = choice_at<sim::Precision>(
+        c, *n, "precision",
+        {{"single", sim::Precision::Single}, {"double", sim::Precision::Double}});
+  read_box(c, top, s);
+  read_model(c, top, s);
+  read_types(c, top, s);
+  read_pairs(c, top, s);
+  read_init(c, top, s);
+  read_stages(c, top, s);
+  read_output(c, top, s);
+  top.finish();
+  return s;
+}
+
+Scene load_scene(const fs::path& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw IoError(path.string() + ": cannot open scene file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path.string() + ": cannot open scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw IoError(path.string() + ": cannot read scene file");
+  return parse_scene(text.str(), path);
+}
+
+sim::ParticleSet build_initial_particles(const Scene& scene) {
+  const std::string file = scene.path.string();
+  const sim::Model& m = scene.model;
+  sim::ParticleSet out;
+  std::vector<char> generated;  // per particle: made here (gets Maxwell velocities)
+  std::int64_t next_id = 0;     // one past the largest id so far
+
+  for (size_t k = 0; k < scene.init.size(); ++k) {
+    const InitSpec& in = scene.init[k];
+    const std::string where = file + ": " + indexed("init", k);
+    const size_t before_size = out.size();
+    if (in.kind == InitSpec::Kind::File) {
+      sim::ParticleFileMeta meta;
+      sim::ParticleSet p;
+      try {
+        p = sim::read_particle_file(in.file, &meta);
+      } catch (const IoError& e) {
+        throw IoError(where + ".file: " + e.what());
+      }
+      std::vector<std::int32_t> map(meta.type_names.size());
+      for (size_t t = 0; t < meta.type_names.size(); ++t) {
+        const int idx = m.type_index(meta.type_names[t]);
+        if (idx < 0)
+          throw ConfigError(where + ".file: " + in.file.string() + ": type " +
+                            in_quotes(meta.type_names[t]) +
+                            " is not a type of this scene (types: " + join_names(m) + ")");
+        map[t] = idx;
+      }
+      // Ids stay unique: a file whose ids would collide with earlier blocks is shifted past them
+      // (its relative id order is kept); a file that comes first keeps its ids.
+      std::int64_t lo_id = 0, hi_id = -1;
+      if (p.size() > 0) {
+        const auto [mn, mx] = std::minmax_element(p.id.begin(), p.id.end());
+        lo_id = *mn;
+        hi_id = *mx;
+      }
+      constexpr std::int64_t kIdLimit = std::int64_t{1} << 62;  // keeps the shift overflow-free
+      if (lo_id < -kIdLimit || hi_id > kIdLimit)
+        throw ConfigError(where + ".file: " + in.file.string() +
+                          ": particle ids must lie in [-2^62, 2^62]");
+      const std::int64_t shift = (p.size() > 0 && lo_id < next_id) ? next_id - lo_id : 0;
+      for (size_t i = 0; i < p.size(); ++i) {
+        const double pos[3] = {p.x[i], p.y[i], p.z[i]};
+        for (size_t a = 0; a < 3; ++a)
+          if (pos[a] < scene.box.lo[a] || pos[a] > scene.box.hi[a])
+            throw ConfigError(where + ": particle " + std::to_string(p.id[i]) + " of " +
+                              in.file.string() + " at (" + num(pos[0]) + ", " + num(pos[1]) + ", " +
+                              num(pos[2]) + ") lies outside the box " + box_text(scene.box));
+        out.add(p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i],
+                map[static_cast<size_t>(p.type[i])], p.id[i] + shift);
+      }
+      if (p.size() > 0) next_id = std::max(next_id, hi_id + shift + 1);
+      generated.resize(out.size(), 0);
+    } else {
+      const std::int32_t t = m.type_index(in.type);
+      if (t < 0)
+        throw ConfigError(where + ".type: unknown type " + in_quotes(in.type) +
+                          " (types: " + join_names(m) + ")");
+      for (size_t a = 0; a < 3; ++a)
+        if (in.lo[a] < scene.box.lo[a] || in.hi[a] > scene.box.hi[a] || !(in.hi[a] > in.lo[a]))
+          throw ConfigError(where + ": region must lie inside the box " + box_text(scene.box));
+      if (in.kind == InitSpec::Kind::Random) {
+        const double volume = (in.hi[0] - in.lo[0]) * (in.hi[1] - in.lo[1]) * (in.hi[2] - in.lo[2]);
+        const std::int64_t count = in.density ? std::llround(*in.density * volume) : *in.count;
+        sim::fill_random(out, t, in.lo, in.hi, count, init_block_seed(m.seed, k), next_id);
+      } else {
+        if (!in.density) throw ConfigError(where + ".density: missing");
+        sim::fill_lattice(out, t, in.lo, in.hi, *in.density, next_id);
+      }
+      generated.resize(out.size(), 1);
+      // Generated particles lie in their region, which lies in the box; checked all the same.
+      for (size_t i = before_size; i < out.size(); ++i)
+        for (double v :
+             {out.x[i] - scene.box.lo[0], scene.box.hi[0] - out.x[i], out.y[i] - scene.box.lo[1],
+              scene.box.hi[1] - out.y[i], out.z[i] - scene.box.lo[2], scene.box.hi[2] - out.z[i]})
+          if (v < 0)
+            throw ConfigError(where + ": particle " + std::to_string(out.id[i]) +
+                              " lies outside the box " + box_text(scene.box));
+    }
+    if (static_cast<double>(out.size()) > kMaxParticles)
+      throw ConfigError(where + ": the scene would hold more than " + num(kMaxParticles) +
+                        " particles");
+  }
+
+  // Maxwell velocities for the generated particles only (file particles keep theirs); the
+  // centre-of-mass velocity of the generated mobile particles is removed.
+  sim::ParticleSet gen;
+  for (size_t i = 0; i < out.size(); ++i)
+    if (generated[i]) gen.add(out.x[i], out.y[i], out.z[i], 0, 0, 0, out.type[i], out.id[i]);
+  if (gen.size() > 0) {
+    sim::assign_maxwell_velocities(gen, m, m.kBT, init_velocity_seed(m.seed));
+    size_t j = 0;
+    for (size_t i = 0; i < out.size(); ++i)
+      if (generated[i]) {
+        out.vx[i] = gen.vx[j];
+        out.vy[i] = gen.vy[j];
+        out.vz[i] = gen.vz[j];
+        ++j;
+      }
+  }
+  return out;
+}
+
+}  // namespace mesorock::pipeline

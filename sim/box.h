@@ -1,0 +1,27 @@
+#pragma once
+// Simulation box: an axis-aligned cuboid, each axis periodic or bounded by reflective faces.
+#include "sim/hd.h"
+
+namespace mesorock::sim {
+
+template <class Real>
+struct Box {
+  Real lo[3] = {0, 0, 0};
+  Real length[3] = {1, 1, 1};
+  bool periodic[3] = {true, true, true};
+
+  MESO_HD Real hi(int axis) const { return lo[axis] + length[axis]; }
+  MESO_HD Real volume() const { return length[0] * length[1] * length[2]; }
+
+  // Minimum-image separation along one axis. Positions are kept inside the box, so |d| < L and
+  // one conditional shift suffices; d and -d map to exact negatives, keeping F_ij = -F_ji.
+  MESO_HD MESO_INLINE Real minimum_image(Real d, int axis) const {
+    if (!periodic[axis]) return d;
+    const Real half = Real(0.5) * length[axis];
+    if (d > half) return d - length[axis];
+    if (d < -half) return d + length[axis];
+    return d;
+  }
+};
+
+}  // namespace mesorock::sim

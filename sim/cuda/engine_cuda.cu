@@ -1,0 +1,317 @@
+// CUDA engine. Per step: kick_drift; cell index per particle; stable radix sort of the particle
+// storage by cell (CUB), so neighbours are contiguous in memory exactly as on the CPU; density
+// (only with a many-body term); forces; kick. Nothing crosses to the host unless an output asks.
+#include <cuda_runtime.h>
+
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_reduce.cuh>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "mesorock/errors.h"
+#include "sim/cuda/engine_cuda.h"
+#include "sim/kernels.h"
+#include "sim/simulation.h"
+#include "sim/terms.h"
+
+namespace mesorock::sim {
+
+namespace {
+
+void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess)
+    throw DeviceError(std::string("CUDA error in ") + what + ": " + cudaGetErrorString(e));
+}
+
+// A typed device buffer that owns its memory.
+template <class T>
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  ~DeviceBuffer() { release(); }
+  void resize(size_t n) {
+    if (n == size_) return;
+    release();
+    if (n > 0) check(cudaMalloc(&ptr_, n * sizeof(T)), "cudaMalloc");
+    size_ = n;
+  }
+  void upload(const std::vector<T>& h) {
+    resize(h.size());
+    if (size_) check(cudaMemcpy(ptr_, h.data(), size_ * sizeof(T), cudaMemcpyHostToDevice), "upload");
+  }
+  void download(std::vector<T>& h) const {
+    h.resize(size_);
+    if (size_) check(cudaMemcpy(h.data(), ptr_, size_ * sizeof(T), cudaMemcpyDeviceToHost), "download");
+  }
+  T* get() const { return ptr_; }
+  size_t size() const { return size_; }
+  void swap(DeviceBuffer& o) {
+    std::swap(ptr_, o.ptr_);
+    std::swap(size_, o.size_);
+  }
+
+ private:
+  void release() {
+    if (ptr_) cudaFree(ptr_);
+    ptr_ = nullptr;
+    size_ = 0;
+  }
+  T* ptr_ = nullptr;
+  size_t size_ = 0;
+};
+
+constexpr int kBlock = 128;
+inline int blocks_for(int n) { return (n + kBlock - 1) / kBlock; }
+
+template <class Real>
+__global__ void kick_drift_kernel(StepView<Real> v) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) kick_drift(v, i);
+}
+
+template <class Real>
+__global__ void kick_kernel(StepView<Real> v) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) kick(v, i);
+}
+
+template <class Real>
+__global__ void cell_index_kernel(StepView<Real> v, int* cell, int* index) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n) return;
+  cell[i] = v.grid.index(v.grid.coordinate(v.x[i], v.box.lo[0], 0),
+                         v.grid.coordinate(v.y[i], v.box.lo[1], 1),
+                         v.grid.coordinate(v.z[i], v.box.lo[2], 2));
+  index[i] = i;
+}
+
+// cell_start[c] = first sorted position with cell >= c (sorted_cell is non-decreasing).
+__global__ void cell_start_kernel(const int* sorted_cell, int n, int ncells, int* cell_start) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k > n) return;
+  const int prev = k == 0 ? -1 : sorted_cell[k - 1];
+  const int cur = k == n ? ncells : sorted_cell[k];
+  for (int c = prev + 1; c <= cur; ++c) cell_start[c] = k;
+}
+
+template <class T>
+__global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, const int* perm, int n) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k < n) out[k] = in[perm[k]];
+}
+
+template <class Real, class DensityKernel>
+__global__ void density_kernel(StepView<Real> v) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) density_of_particle<Real, DensityKernel>(v, i);
+}
+
+template <class Real, class C, class T, class B>
+__global__ void force_kernel(StepView<Real> v) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) force_on_particle<Real, C, T, B>(v, i);
+}
+
+template <class Real, class C, class T>
+__global__ void virial_kernel(StepView<Real> v, double* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n) return;
+  const ParticleVirial<Real> w = virial_of_particle<Real, C, T>(v, i);
+  for (int c = 0; c < 6; ++c) {
+    out[18 * i + c] = w.conservative[c];
+    out[18 * i + 6 + c] = w.dissipative[c];
+    out[18 * i + 12 + c] = w.random[c];
+  }
+}
+
+template <class Real, class Terms>
+class CudaEngine final : public Engine<Real> {
+  using C = typename Terms::conservative;
+  using T = typename Terms::thermostat;
+  using B = typename Terms::body_force;
+
+ public:
+  explicit CudaEngine(int device) { check(cudaSetDevice(device), "cudaSetDevice"); }
+
+  const char* name() const override { return "cuda"; }
+
+  void initialize(HostState<Real>& host) override {
+    host_ = &host;
+    const int n = host.size();
+    n_ = n;
+    host.origin.resize(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) host.origin[static_cast<size_t>(i)] = i;
+    host.vex = host.vx;
+    host.vey = host.vy;
+    host.vez = host.vz;
+    for (auto* a : {&host.fx, &host.fy, &host.fz, &host.rho})
+      a->assign(static_cast<size_t>(n), Real(0));
+    Real_arrays_upload(host);
+    type_.upload(host.type);
+    id_.upload(host.id);
+    origin_.upload(host.origin);
+    table_.upload(host.table);
+    body_force_.upload(host.body_force);
+    ncells_ = host.grid.count();
+    cell_start_.resize(static_cast<size_t>(ncells_) + 1);
+    cell_.resize(static_cast<size_t>(n));
+    cell_sorted_.resize(static_cast<size_t>(n));
+    index_.resize(static_cast<size_t>(n));
+    perm_.resize(static_cast<size_t>(n));
+    scratch_real_.resize(static_cast<size_t>(n));
+    scratch_int_.resize(static_cast<size_t>(n));
+    scratch_id_.resize(static_cast<size_t>(n));
+    size_t temp = 0;
+    check(cub::DeviceRadixSort::SortPairs(nullptr, temp, cell_.get(), cell_sorted_.get(),
+                                          index_.get(), perm_.get(), n),
+          "radix sort sizing");
+    sort_temp_.resize(temp);
+    step_ = host.step;
+    dt_ = host.dt;
+    compute_forces();
+    check(cudaDeviceSynchronize(), "initial forces");
+  }
+
+  void advance(std::uint64_t steps) override {
+    const int g = blocks_for(n_);
+    for (std::uint64_t k = 0; k < steps; ++k) {
+      kick_drift_kernel<<<g, kBlock>>>(view());
+      ++step_;
+      compute_forces();
+      kick_kernel<<<g, kBlock>>>(view());
+    }
+    check(cudaGetLastError(), "step kernels");
+  }
+
+  void set_dt(Real dt) override { dt_ = dt; }
+  std::uint64_t step() const override { return step_; }
+
+  void download(HostState<Real>& host) override {
+    check(cudaDeviceSynchronize(), "step");
+    DeviceBuffer<Real>* arrays[] = {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_,
+                                    &fx_, &fy_, &fz_, &rho_};
+    std::vector<Real>* targets[] = {&host.x, &host.y, &host.z, &host.vx, &host.vy, &host.vz,
+                                    &host.vex, &host.vey, &host.vez, &host.fx, &host.fy, &host.fz,
+                                    &host.rho};
+    for (int a = 0; a < 13; ++a) arrays[a]->download(*targets[a]);
+    type_.download(host.type);
+    id_.download(host.id);
+    origin_.download(host.origin);
+    host.step = step_;
+    host.dt = dt_;
+  }
+
+  VirialSums virial() override {
+    // Allocated on first use only: runs that never ask for stress own no such buffer.
+    virial_.resize(static_cast<size_t>(18) * n_);
+    virial_kernel<Real, C, T><<<blocks_for(n_), kBlock>>>(view(), virial_.get());
+    check(cudaGetLastError(), "virial kernel");
+    std::vector<double> h;
+    virial_.download(h);
+    VirialSums s;
+    for (int i = 0; i < n_; ++i)
+      for (int c = 0; c < 6; ++c) {
+        s.conservative[c] += h[18 * static_cast<size_t>(i) + c];
+        s.dissipative[c] += h[18 * static_cast<size_t>(i) + 6 + c];
+        s.random[c] += h[18 * static_cast<size_t>(i) + 12 + c];
+      }
+    return s;
+  }
+
+ private:
+  void Real_arrays_upload(const HostState<Real>& h) {
+    x_.upload(h.x), y_.upload(h.y), z_.upload(h.z);
+    vx_.upload(h.vx), vy_.upload(h.vy), vz_.upload(h.vz);
+    vex_.upload(h.vex), vey_.upload(h.vey), vez_.upload(h.vez);
+    fx_.upload(h.fx), fy_.upload(h.fy), fz_.upload(h.fz);
+    rho_.upload(h.rho);
+  }
+
+  StepView<Real> view() const {
+    StepView<Real> v = host_->view();  // box, grid, parameters
+    v.n = n_;
+    v.x = x_.get(), v.y = y_.get(), v.z = z_.get();
+    v.vx = vx_.get(), v.vy = vy_.get(), v.vz = vz_.get();
+    v.vex = vex_.get(), v.vey = vey_.get(), v.vez = vez_.get();
+    v.fx = fx_.get(), v.fy = fy_.get(), v.fz = fz_.get();
+    v.rho = rho_.get();
+    v.type = type_.get();
+    v.id = id_.get();
+    v.cell_start = cell_start_.get();
+    v.table = table_.get();
+    v.body_force = body_force_.get();
+    v.dt = dt_;
+    v.inv_sqrt_dt = Real(1) / static_cast<Real>(std::sqrt(static_cast<double>(dt_)));
+    v.step = step_;
+    return v;
+  }
+
+  // Stable sort of the storage by cell, then density and forces for step_.
+  void compute_forces() {
+    const int g = blocks_for(n_);
+    cell_index_kernel<<<g, kBlock>>>(view(), cell_.get(), index_.get());
+    size_t temp = sort_temp_.size();
+    int bits = 1;
+    while ((1 << bits) < ncells_ + 1) ++bits;
+    check(cub::DeviceRadixSort::SortPairs(sort_temp_.get(), temp, cell_.get(), cell_sorted_.get(),
+                                          index_.get(), perm_.get(), n_, 0, bits),
+          "radix sort");
+    cell_start_kernel<<<blocks_for(n_ + 1), kBlock>>>(cell_sorted_.get(), n_, ncells_,
+                                                      cell_start_.get());
+    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_}) {
+      gather_kernel<<<g, kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), n_);
+      a->swap(scratch_real_);
+    }
+    gather_kernel<<<g, kBlock>>>(type_.get(), scratch_int_.get(), perm_.get(), n_);
+    type_.swap(scratch_int_);
+    gather_kernel<<<g, kBlock>>>(origin_.get(), scratch_int_.get(), perm_.get(), n_);
+    origin_.swap(scratch_int_);
+    gather_kernel<<<g, kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), n_);
+    id_.swap(scratch_id_);
+    const StepView<Real> v = view();
+    if constexpr (C::needs_density) density_kernel<Real, typename C::density_kernel><<<g, kBlock>>>(v);
+    force_kernel<Real, C, T, B><<<g, kBlock>>>(v);
+  }
+
+  HostState<Real>* host_ = nullptr;
+  int n_ = 0, ncells_ = 0;
+  std::uint64_t step_ = 0;
+  Real dt_ = Real(0.01);
+  DeviceBuffer<Real> x_, y_, z_, vx_, vy_, vz_, vex_, vey_, vez_, fx_, fy_, fz_, rho_;
+  DeviceBuffer<std::int32_t> type_, origin_, scratch_int_;
+  DeviceBuffer<std::int64_t> id_, scratch_id_;
+  DeviceBuffer<Real> scratch_real_;
+  DeviceBuffer<int> cell_, cell_sorted_, index_, perm_, cell_start_;
+  DeviceBuffer<unsigned char> sort_temp_;
+  DeviceBuffer<PairParams<Real>> table_;
+  DeviceBuffer<Real> body_force_;
+  DeviceBuffer<double> virial_;
+};
+
+}  // namespace
+
+template <class Real>
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device) {
+  std::unique_ptr<Engine<Real>> engine;
+  dispatch_terms(model, [&](auto terms) {
+    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device);
+  });
+  return engine;
+}
+
+template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int);
+template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int);
+
+std::string cuda_unavailable_reason() {
+  int count = 0;
+  const cudaError_t e = cudaGetDeviceCount(&count);
+  if (e != cudaSuccess)
+    return std::string("backend cuda: no usable CUDA device (") + cudaGetErrorString(e) + ")";
+  if (count == 0) return "backend cuda: no CUDA device found";
+  return "";
+}
+
+}  // namespace mesorock::sim

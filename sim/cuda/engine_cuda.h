@@ -1,0 +1,14 @@
+#pragma once
+// The CUDA backend: the same kernel bodies as the CPU backend (sim/kernels.h), one thread per
+// particle; the whole step stays on the device.
+#include <memory>
+
+#include "sim/model.h"
+#include "sim/state.h"
+
+namespace mesorock::sim {
+
+template <class Real>
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device);
+
+}  // namespace mesorock::sim

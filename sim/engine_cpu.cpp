@@ -1,0 +1,170 @@
+#include "sim/engine_cpu.h"
+
+#include <omp.h>
+
+#include <algorithm>
+
+#include "sim/kernels.h"
+#include "sim/terms.h"
+
+namespace mesorock::sim {
+
+namespace {
+
+// Counting sort of the particles by cell, applied to the storage itself: afterwards cell c holds
+// particles [cell_start[c], cell_start[c+1]) and the neighbour loop reads contiguous memory.
+// Stable, so the order within a cell (and hence every floating-point sum) is deterministic.
+template <class Real>
+class CellSorter {
+ public:
+  void sort(HostState<Real>& s) {
+    const int ncells = s.grid.count();
+    const int n = s.size();
+    s.cell_start.assign(static_cast<size_t>(ncells) + 1, 0);
+    cell_of_.resize(static_cast<size_t>(n));
+    dest_.resize(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      const int c = s.grid.index(s.grid.coordinate(s.x[i], s.box.lo[0], 0),
+                                 s.grid.coordinate(s.y[i], s.box.lo[1], 1),
+                                 s.grid.coordinate(s.z[i], s.box.lo[2], 2));
+      cell_of_[static_cast<size_t>(i)] = c;
+      ++s.cell_start[static_cast<size_t>(c) + 1];
+    }
+    for (int c = 0; c < ncells; ++c) s.cell_start[c + 1] += s.cell_start[c];
+    fill_.assign(s.cell_start.begin(), s.cell_start.end() - 1);
+    for (int i = 0; i < n; ++i) dest_[static_cast<size_t>(i)] = fill_[cell_of_[i]]++;
+    for (auto* a : {&s.x, &s.y, &s.z, &s.vx, &s.vy, &s.vz, &s.vex, &s.vey, &s.vez})
+      permute(*a, scratch_real_);
+    permute(s.type, scratch_int_);
+    permute(s.origin, scratch_int_);
+    permute(s.id, scratch_id_);
+  }
+
+ private:
+  template <class T>
+  void permute(std::vector<T>& a, std::vector<T>& scratch) {
+    scratch.resize(a.size());
+    const size_t n = a.size();
+    for (size_t i = 0; i < n; ++i) scratch[static_cast<size_t>(dest_[i])] = a[i];
+    a.swap(scratch);
+  }
+  std::vector<int> cell_of_, dest_, fill_;
+  std::vector<Real> scratch_real_;
+  std::vector<std::int32_t> scratch_int_;
+  std::vector<std::int64_t> scratch_id_;
+};
+
+template <class Real, class Terms>
+class CpuEngine final : public Engine<Real> {
+ public:
+  explicit CpuEngine(int threads) : threads_(threads) {}
+
+  const char* name() const override { return "cpu"; }
+
+  void initialize(HostState<Real>& host) override {
+    s_ = &host;
+    host.origin.resize(static_cast<size_t>(host.size()));
+    for (int i = 0; i < host.size(); ++i) host.origin[static_cast<size_t>(i)] = i;
+    for (auto* v : {&host.vex, &host.vey, &host.vez, &host.fx, &host.fy, &host.fz, &host.rho})
+      v->assign(static_cast<size_t>(host.size()), Real(0));
+    host.vex = host.vx;
+    host.vey = host.vy;
+    host.vez = host.vz;
+    compute_forces();
+  }
+
+  void advance(std::uint64_t steps) override {
+    ThreadScope scope(threads_);
+    for (std::uint64_t k = 0; k < steps; ++k) {
+      const StepView<Real> v = s_->view();
+      const int n = v.n;
+#pragma omp parallel for schedule(static)
+      for (int i = 0; i < n; ++i) kick_drift(v, i);
+      ++s_->step;
+      compute_forces();
+      const StepView<Real> w = s_->view();
+#pragma omp parallel for schedule(static)
+      for (int i = 0; i < n; ++i) kick(w, i);
+    }
+  }
+
+  void set_dt(Real dt) override { s_->dt = dt; }
+  void download(HostState<Real>&) override {}
+  std::uint64_t step() const override { return s_->step; }
+
+  VirialSums virial() override {
+    ThreadScope scope(threads_);
+    const StepView<Real> v = s_->view();
+    const int n = v.n;
+    VirialSums total;
+#pragma omp parallel
+    {
+      VirialSums local;
+#pragma omp for schedule(static)
+      for (int k = 0; k < n; ++k) {
+        const auto w = virial_of_particle<Real, typename Terms::conservative,
+                                          typename Terms::thermostat>(v, k);
+        for (int c = 0; c < 6; ++c) {
+          local.conservative[c] += w.conservative[c];
+          local.dissipative[c] += w.dissipative[c];
+          local.random[c] += w.random[c];
+        }
+      }
+#pragma omp critical
+      for (int c = 0; c < 6; ++c) {
+        total.conservative[c] += local.conservative[c];
+        total.dissipative[c] += local.dissipative[c];
+        total.random[c] += local.random[c];
+      }
+    }
+    return total;
+  }
+
+ private:
+  // Applies the requested thread count for the duration of a call, then restores it.
+  struct ThreadScope {
+    explicit ThreadScope(int t) : saved(omp_get_max_threads()) {
+      if (t > 0) omp_set_num_threads(t);
+    }
+    ~ThreadScope() { omp_set_num_threads(saved); }
+    int saved;
+  };
+
+  // Cell list, density (only with a many-body term), forces; for step s_->step.
+  void compute_forces() {
+    ThreadScope scope(threads_);
+    sorter_.sort(*s_);
+    const StepView<Real> v = s_->view();
+    const int n = v.n;
+    using C = typename Terms::conservative;
+    if constexpr (C::needs_density) {
+#pragma omp parallel for schedule(static)
+      for (int k = 0; k < n; ++k)
+        density_of_particle<Real, typename C::density_kernel>(v, k);
+    }
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < n; ++k)
+      force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force>(
+          v, k);
+  }
+
+  int threads_;
+  HostState<Real>* s_ = nullptr;
+  CellSorter<Real> sorter_;
+};
+
+}  // namespace
+
+template <class Real>
+std::unique_ptr<Engine<Real>> make_cpu_engine(const Model& model, int threads) {
+  std::unique_ptr<Engine<Real>> engine;
+  dispatch_terms(model, [&](auto terms) {
+    engine = std::make_unique<CpuEngine<Real, decltype(terms)>>(threads);
+  });
+  return engine;
+}
+
+template std::unique_ptr<Engine<float>> make_cpu_engine<float>(const Model&, int);
+template std::unique_ptr<Engine<double>> make_cpu_engine<double>(const Model&, int);
+
+}  // namespace mesorock::sim

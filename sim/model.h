@@ -1,0 +1,109 @@
+#pragma once
+// The physical model of a run as plain data (double precision, backend-independent).
+// pipeline/ fills it from a scene file; sim/ never reads files of its own accord.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mesorock::sim {
+
+enum class ConservativeKind { DPD, MDPD };
+enum class DensityKernelKind { Warren, Lucy };
+enum class Precision { Single, Double };
+
+inline const char* to_string(ConservativeKind k) { return k == ConservativeKind::DPD ? "dpd" : "mdpd"; }
+inline const char* to_string(DensityKernelKind k) {
+  return k == DensityKernelKind::Warren ? "warren" : "lucy";
+}
+inline const char* to_string(Precision p) { return p == Precision::Single ? "single" : "double"; }
+
+struct TypeSpec {
+  std::string name;
+  bool frozen = false;                         // frozen wall particles never move
+  std::array<double, 3> body_force{0, 0, 0};  // force per particle (m = 1)
+};
+
+struct PairSpec {
+  double A = 0;      // conservative amplitude (DPD: a = A > 0 repels; mDPD: A < 0 attracts)
+  double B = 0;      // many-body repulsion (mDPD only)
+  double gamma = 0;  // dissipation (thermostat only)
+};
+
+struct Model {
+  std::vector<TypeSpec> types;
+  std::vector<PairSpec> pairs;  // ntypes x ntypes, symmetric
+  ConservativeKind conservative = ConservativeKind::MDPD;
+  DensityKernelKind density_kernel = DensityKernelKind::Warren;
+  bool thermostat = true;
+  double rd = 0.75;     // many-body cutoff (density kernel and repulsion range)
+  double kBT = 1.0;     // thermostat temperature
+  double lambda = 0.5;  // velocity-Verlet lambda (Groot & Warren); 0.5 = plain velocity Verlet
+  std::uint64_t seed = 1;
+  Precision precision = Precision::Double;
+
+  int ntypes() const { return static_cast<int>(types.size()); }
+  PairSpec& pair(int a, int b) { return pairs[static_cast<size_t>(a * ntypes() + b)]; }
+  const PairSpec& pair(int a, int b) const { return pairs[static_cast<size_t>(a * ntypes() + b)]; }
+  // Sets both (a,b) and (b,a).
+  void set_pair(int a, int b, const PairSpec& p) {
+    pair(a, b) = p;
+    pair(b, a) = p;
+  }
+  bool has_body_force() const {
+    for (const auto& t : types)
+      if (t.body_force[0] != 0 || t.body_force[1] != 0 || t.body_force[2] != 0) return true;
+    return false;
+  }
+  int type_index(const std::string& name) const {
+    for (int t = 0; t < ntypes(); ++t)
+      if (types[static_cast<size_t>(t)].name == name) return t;
+    return -1;
+  }
+  // Adds a type with zeroed pair entries; returns its index.
+  int add_type(const TypeSpec& t) {
+    const int old = ntypes();
+    std::vector<PairSpec> grown(static_cast<size_t>((old + 1) * (old + 1)));
+    for (int a = 0; a < old; ++a)
+      for (int b = 0; b < old; ++b)
+        grown[static_cast<size_t>(a * (old + 1) + b)] = pairs[static_cast<size_t>(a * old + b)];
+    pairs = std::move(grown);
+    types.push_back(t);
+    return old;
+  }
+};
+
+struct BoxSpec {
+  std::array<double, 3> lo{0, 0, 0};
+  std::array<double, 3> hi{10, 10, 10};
+  std::array<bool, 3> periodic{true, true, true};
+  double length(int a) const { return hi[static_cast<size_t>(a)] - lo[static_cast<size_t>(a)]; }
+  double volume() const { return length(0) * length(1) * length(2); }
+};
+
+// Host-side particle data in double precision: what files hold and what the solver starts from.
+struct ParticleSet {
+  std::vector<double> x, y, z, vx, vy, vz;
+  std::vector<std::int32_t> type;
+  std::vector<std::int64_t> id;
+
+  size_t size() const { return x.size(); }
+  void reserve(size_t n) {
+    for (auto* v : {&x, &y, &z, &vx, &vy, &vz}) v->reserve(n);
+    type.reserve(n);
+    id.reserve(n);
+  }
+  void add(double px, double py, double pz, double ux, double uy, double uz, std::int32_t t,
+           std::int64_t pid) {
+    x.push_back(px);
+    y.push_back(py);
+    z.push_back(pz);
+    vx.push_back(ux);
+    vy.push_back(uy);
+    vz.push_back(uz);
+    type.push_back(t);
+    id.push_back(pid);
+  }
+};
+
+}  // namespace mesorock::sim

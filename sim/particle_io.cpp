@@ -1,0 +1,564 @@
+#include "sim/particle_io.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include "mesorock/atomic_file.h"
+#include "mesorock/errors.h"
+#include "mesorock/version.h"
+
+namespace mesorock::sim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// HDF5 prints its error stack to stderr by default; our callers get IoError messages instead.
+void silence_hdf5_errors() {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+}
+
+// Owns one HDF5 identifier (file, group, dataset, dataspace, datatype, attribute, property list).
+class Handle {
+ public:
+  using Closer = herr_t (*)(hid_t);
+  Handle() = default;
+  Handle(hid_t id, Closer closer) : id_(id), closer_(closer) {}
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  Handle(Handle&& o) noexcept : id_(std::exchange(o.id_, -1)), closer_(o.closer_) {}
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) {
+      reset();
+      id_ = std::exchange(o.id_, -1);
+      closer_ = o.closer_;
+    }
+    return *this;
+  }
+  ~Handle() { reset(); }
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+  // Closes now; returns false when the library reports a failure (e.g. a failed flush).
+  bool close() {
+    if (id_ < 0) return true;
+    const herr_t r = closer_(std::exchange(id_, -1));
+    return r >= 0;
+  }
+
+ private:
+  void reset() {
+    if (id_ >= 0 && closer_) closer_(id_);
+    id_ = -1;
+  }
+  hid_t id_ = -1;
+  Closer closer_ = nullptr;
+};
+
+// Messages: "<file>: <where>: <problem>".
+[[noreturn]] void fail(const std::string& file, const std::string& where,
+                       const std::string& problem) {
+  throw IoError(file + ": " + (where.empty() ? "" : where + ": ") + problem);
+}
+
+void check(herr_t status, const std::string& file, const std::string& where,
+           const std::string& problem) {
+  if (status < 0) fail(file, where, problem);
+}
+
+Handle checked(hid_t id, Handle::Closer closer, const std::string& file, const std::string& where,
+               const std::string& problem) {
+  if (id < 0) fail(file, where, problem);
+  return Handle(id, closer);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing
+
+Handle simple_space(const std::vector<hsize_t>& dims, const std::string& file,
+                    const std::string& where) {
+  return checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose,
+                 file, where, "cannot create dataspace");
+}
+
+Handle vlen_string_type(const std::string& file) {
+  Handle t = checked(H5Tcopy(H5T_C_S1), H5Tclose, file, "", "cannot create string type");
+  check(H5Tset_size(t.get(), H5T_VARIABLE), file, "", "cannot create string type");
+  check(H5Tset_cset(t.get(), H5T_CSET_UTF8), file, "", "cannot create string type");
+  return t;
+}
+
+void write_dataset(hid_t group, const char* name, const std::string& where, hid_t file_type,
+                   hid_t mem_type, const std::vector<hsize_t>& dims, const void* data,
+                   const std::string& file) {
+  Handle space = simple_space(dims, file, where);
+  Handle ds = checked(
+      H5Dcreate2(group, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose, file, where, "cannot create dataset");
+  hsize_t total = 1;
+  for (hsize_t d : dims) total *= d;
+  if (total > 0)
+    check(H5Dwrite(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), file, where,
+          "write failed");
+  if (!ds.close()) fail(file, where, "write failed");
+}
+
+void write_attribute(hid_t obj, const char* name, const std::string& where, hid_t file_type,
+                     hid_t mem_type, const std::vector<hsize_t>& dims, const void* data,
+                     const std::string& file) {
+  Handle space = dims.empty() ? checked(H5Screate(H5S_SCALAR), H5Sclose, file, where,
+                                        "cannot create dataspace")
+                              : simple_space(dims, file, where);
+  Handle attr = checked(H5Acreate2(obj, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT),
+                        H5Aclose, file, where, "cannot create attribute");
+  hsize_t total = 1;
+  for (hsize_t d : dims) total *= d;
+  if (total > 0) check(H5Awrite(attr.get(), mem_type, data), file, where, "cannot write attribute");
+}
+
+void write_string_attribute(hid_t obj, const char* name, const std::string& where,
+                            const std::string& value, const std::string& file) {
+  Handle t = vlen_string_type(file);
+  const char* ptr = value.c_str();
+  write_attribute(obj, name, where, t.get(), t.get(), {}, &ptr, file);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading
+
+std::string dims_text(const std::vector<hsize_t>& dims) {
+  std::string s = "[";
+  for (size_t i = 0; i < dims.size(); ++i) s += (i ? "," : "") + std::to_string(dims[i]);
+  return s + "]";
+}
+
+std::vector<hsize_t> extent(hid_t space, const std::string& file, const std::string& where) {
+  const int rank = H5Sget_simple_extent_ndims(space);
+  if (rank < 0) fail(file, where, "cannot read dataspace");
+  std::vector<hsize_t> dims(static_cast<size_t>(rank));
+  if (rank > 0 && H5Sget_simple_extent_dims(space, dims.data(), nullptr) < 0)
+    fail(file, where, "cannot read dataspace");
+  return dims;
+}
+
+const char* class_name(H5T_class_t c) {
+  switch (c) {
+    case H5T_INTEGER:
+      return "integer";
+    case H5T_FLOAT:
+      return "floating-point";
+    case H5T_STRING:
+      return "string";
+    default:
+      return "non-numeric";
+  }
+}
+
+Handle open_dataset(hid_t group, const char* name, const std::string& where,
+                    const std::string& file) {
+  if (H5Lexists(group, name, H5P_DEFAULT) <= 0) fail(file, where, "missing");
+  return checked(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose, file, where, "cannot open dataset");
+}
+
+// Reads dataset `name` of class `want` with shape [N] (cols == 0) or [N, cols]; returns N.
+template <class T>
+std::vector<T> read_dataset(hid_t group, const char* name, hid_t mem_type, H5T_class_t want,
+                            hsize_t cols, std::optional<hsize_t> expect_rows,
+                            const std::string& file, hsize_t* rows_out) {
+  const std::string where = std::string("/particles/") + name;
+  Handle ds = open_dataset(group, name, where, file);
+  Handle type = checked(H5Dget_type(ds.get()), H5Tclose, file, where, "cannot read datatype");
+  const H5T_class_t cls = H5Tget_class(type.get());
+  if (cls != want)
+    fail(file, where,
+         std::string("must be ") + class_name(want) + " (got " + class_name(cls) + ")");
+  Handle space = checked(H5Dget_space(ds.get()), H5Sclose, file, where, "cannot read dataspace");
+  const auto dims = extent(space.get(), file, where);
+  const bool shape_ok = cols == 0 ? dims.size() == 1 : (dims.size() == 2 && dims[1] == cols);
+  if (!shape_ok)
+    fail(file, where,
+         std::string("expected shape ") + (cols == 0 ? "[N]" : "[N," + std::to_string(cols) + "]") +
+             ", got " + dims_text(dims));
+  const hsize_t rows = dims[0];
+  if (expect_rows && rows != *expect_rows)
+    fail(file, where,
+         std::to_string(rows) + (cols == 0 ? " entries" : " rows") + ", expected " +
+             std::to_string(*expect_rows));
+  std::vector<T> out(static_cast<size_t>(rows * (cols == 0 ? 1 : cols)));
+  if (!out.empty())
+    check(H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), file, where,
+          "read failed");
+  if (rows_out) *rows_out = rows;
+  return out;
+}
+
+struct AttrData {
+  Handle attr;
+  Handle type;
+  hsize_t npoints = 0;
+  std::vector<hsize_t> dims;
+};
+
+std::optional<AttrData> open_attribute(hid_t obj, const char* name, const std::string& where,
+                                       const std::string& file, bool required) {
+  const htri_t exists = H5Aexists(obj, name);
+  if (exists < 0) fail(file, where, "cannot query attribute");
+  if (exists == 0) {
+    if (required) fail(file, where, "missing");
+    return std::nullopt;
+  }
+  AttrData a;
+  a.attr = checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, file, where, "cannot open attribute");
+  a.type = checked(H5Aget_type(a.attr.get()), H5Tclose, file, where, "cannot read datatype");
+  Handle space =
+      checked(H5Aget_space(a.attr.get()), H5Sclose, file, where, "cannot read dataspace");
+  const H5S_class_t sc = H5Sget_simple_extent_type(space.get());
+  if (sc == H5S_NULL) {
+    a.npoints = 0;
+  } else {
+    a.dims = extent(space.get(), file, where);
+    a.npoints = 1;
+    for (hsize_t d : a.dims) a.npoints *= d;
+  }
+  return a;
+}
+
+// A numeric attribute with exactly `n` values (n == 1 accepts a scalar or a 1-element array).
+template <class T>
+std::optional<std::vector<T>> read_numeric_attribute(hid_t obj, const char* name,
+                                                     const std::string& where, hid_t mem_type,
+                                                     H5T_class_t want, hsize_t n,
+                                                     const std::string& file, bool required) {
+  auto a = open_attribute(obj, name, where, file, required);
+  if (!a) return std::nullopt;
+  const H5T_class_t cls = H5Tget_class(a->type.get());
+  if (cls != want && !(want == H5T_FLOAT && cls == H5T_INTEGER))
+    fail(file, where,
+         std::string("must be ") + class_name(want) + " (got " + class_name(cls) + ")");
+  if (a->npoints != n || a->dims.size() > 1)
+    fail(file, where,
+         "expected " + std::to_string(n) + (n == 1 ? " value" : " values") + ", got shape " +
+             dims_text(a->dims));
+  std::vector<T> out(static_cast<size_t>(n));
+  check(H5Aread(a->attr.get(), mem_type, out.data()), file, where, "cannot read attribute");
+  return out;
+}
+
+// A string attribute (scalar or 1-D array; variable- or fixed-length).
+std::optional<std::vector<std::string>> read_string_attribute(hid_t obj, const char* name,
+                                                              const std::string& where,
+                                                              const std::string& file,
+                                                              bool required) {
+  auto a = open_attribute(obj, name, where, file, required);
+  if (!a) return std::nullopt;
+  if (H5Tget_class(a->type.get()) != H5T_STRING)
+    fail(file, where,
+         std::string("must be a string (got ") + class_name(H5Tget_class(a->type.get())) + ")");
+  if (a->dims.size() > 1) fail(file, where, "expected a 1-D array, got " + dims_text(a->dims));
+  const size_t n = static_cast<size_t>(a->npoints);
+  std::vector<std::string> out;
+  out.reserve(n);
+  if (n == 0) return out;
+  const htri_t is_var = H5Tis_variable_str(a->type.get());
+  if (is_var < 0) fail(file, where, "cannot read datatype");
+  Handle mem = checked(H5Tcopy(H5T_C_S1), H5Tclose, file, where, "cannot create string type");
+  // HDF5 does not convert between ASCII and UTF-8: read in the stored character set.
+  check(H5Tset_cset(mem.get(), H5Tget_cset(a->type.get())), file, where,
+        "cannot create string type");
+  if (is_var > 0) {
+    check(H5Tset_size(mem.get(), H5T_VARIABLE), file, where, "cannot create string type");
+    std::vector<char*> buf(n, nullptr);
+    const herr_t r = H5Aread(a->attr.get(), mem.get(), buf.data());
+    for (char* s : buf) {
+      if (r >= 0) out.emplace_back(s ? s : "");
+      if (s) H5free_memory(s);
+    }
+    check(r, file, where, "cannot read attribute");
+  } else {
+    const size_t len = H5Tget_size(a->type.get());
+    if (len == 0) fail(file, where, "cannot read datatype");
+    check(H5Tset_size(mem.get(), len), file, where, "cannot create string type");
+    check(H5Tset_strpad(mem.get(), H5Tget_strpad(a->type.get())), file, where,
+          "cannot create string type");
+    std::vector<char> buf(n * len, '\0');
+    check(H5Aread(a->attr.get(), mem.get(), buf.data()), file, where, "cannot read attribute");
+    const bool space_padded = H5Tget_strpad(a->type.get()) == H5T_STR_SPACEPAD;
+    for (size_t i = 0; i < n; ++i) {
+      std::string s(buf.data() + i * len, len);
+      s = s.substr(0, s.find('\0'));
+      if (space_padded) s.erase(s.find_last_not_of(' ') + 1);
+      out.push_back(s);
+    }
+  }
+  return out;
+}
+
+std::optional<std::string> read_scalar_string(hid_t obj, const char* name, const std::string& where,
+                                              const std::string& file) {
+  auto v = read_string_attribute(obj, name, where, file, false);
+  if (!v) return std::nullopt;
+  if (v->size() != 1) fail(file, where, "expected one string, got " + std::to_string(v->size()));
+  return v->front();
+}
+
+std::string number_text(double v) {
+  std::ostringstream s;
+  s << std::setprecision(17) << v;
+  return s.str();
+}
+
+std::string xml_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void write_particle_file(const fs::path& path, const ParticleSet& p, const ParticleFileMeta& meta) {
+  silence_hdf5_errors();
+  const std::string file = path.string();
+  const size_t n = p.size();
+  if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
+      p.vz.size() != n || p.type.size() != n || p.id.size() != n)
+    fail(file, "", "cannot write: particle arrays have different lengths");
+  const auto ntypes = static_cast<std::int64_t>(meta.type_names.size());
+  for (size_t i = 0; i < n; ++i) {
+    if (p.type[i] < 0 || p.type[i] >= ntypes)
+      fail(file, "/particles/type",
+           "cannot write: particle " + std::to_string(p.id[i]) + " has type " +
+               std::to_string(p.type[i]) + ", but there are " + std::to_string(ntypes) +
+               " type names");
+    for (double v : {p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i]})
+      if (!std::isfinite(v))
+        fail(file, "/particles",
+             "cannot write: particle " + std::to_string(p.id[i]) +
+                 " has a non-finite position or velocity");
+  }
+
+  std::vector<double> pos(3 * n), vel(3 * n);
+  for (size_t i = 0; i < n; ++i) {
+    pos[3 * i] = p.x[i];
+    pos[3 * i + 1] = p.y[i];
+    pos[3 * i + 2] = p.z[i];
+    vel[3 * i] = p.vx[i];
+    vel[3 * i + 1] = p.vy[i];
+    vel[3 * i + 2] = p.vz[i];
+  }
+
+  write_atomically(path, [&](const fs::path& tmp) {
+    Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot create file");
+    // STRONG: closing the file closes every object in it, so H5Fclose really flushes and closes.
+    check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot create file");
+    Handle f = checked(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose,
+                       file, "", "cannot create file");
+    {
+      Handle g = checked(H5Gcreate2(f.get(), "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                         H5Gclose, file, "/particles", "cannot create group");
+      const hsize_t hn = static_cast<hsize_t>(n);
+      write_dataset(g.get(), "position", "/particles/position", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+                    {hn, 3}, pos.data(), file);
+      write_dataset(g.get(), "velocity", "/particles/velocity", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+                    {hn, 3}, vel.data(), file);
+      write_dataset(g.get(), "type", "/particles/type", H5T_STD_I32LE, H5T_NATIVE_INT32, {hn},
+                    p.type.data(), file);
+      write_dataset(g.get(), "id", "/particles/id", H5T_STD_I64LE, H5T_NATIVE_INT64, {hn},
+                    p.id.data(), file);
+
+      Handle st = vlen_string_type(file);
+      std::vector<const char*> names;
+      for (const auto& s : meta.type_names) names.push_back(s.c_str());
+      write_attribute(g.get(), "type_names", "/particles@type_names", st.get(), st.get(),
+                      {static_cast<hsize_t>(names.size())}, names.data(), file);
+      write_attribute(g.get(), "box_lo", "/particles@box_lo", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+                      {3}, meta.box.lo.data(), file);
+      write_attribute(g.get(), "box_hi", "/particles@box_hi", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+                      {3}, meta.box.hi.data(), file);
+      const std::array<std::int32_t, 3> periodic{
+          meta.box.periodic[0] ? 1 : 0, meta.box.periodic[1] ? 1 : 0, meta.box.periodic[2] ? 1 : 0};
+      write_attribute(g.get(), "periodic", "/particles@periodic", H5T_STD_I32LE, H5T_NATIVE_INT32,
+                      {3}, periodic.data(), file);
+      write_attribute(g.get(), "step", "/particles@step", H5T_STD_U64LE, H5T_NATIVE_UINT64, {},
+                      &meta.step, file);
+      write_attribute(g.get(), "time", "/particles@time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {},
+                      &meta.time, file);
+    }
+    write_string_attribute(f.get(), "mesorock_version", "/@mesorock_version", kVersion, file);
+    write_string_attribute(f.get(), "git_commit", "/@git_commit", kGitCommit, file);
+    write_string_attribute(f.get(), "created_by", "/@created_by", meta.created_by, file);
+    write_string_attribute(f.get(), "provenance", "/@provenance", meta.provenance_json, file);
+    write_string_attribute(f.get(), "length_unit", "/@length_unit", meta.length_unit, file);
+    if (!f.close()) fail(file, "", "cannot close file (write failed)");
+  });
+}
+
+ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out) {
+  silence_hdf5_errors();
+  const std::string file = path.string();
+  std::error_code ec;
+  if (!fs::exists(path, ec)) fail(file, "", "no such file");
+  if (!fs::is_regular_file(path, ec)) fail(file, "", "not a regular file");
+
+  Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot open file");
+  check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot open file");
+  Handle f = checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose, file, "",
+                     "cannot open as an HDF5 file (not HDF5, unreadable or damaged)");
+  if (H5Lexists(f.get(), "particles", H5P_DEFAULT) <= 0) fail(file, "/particles", "missing");
+  Handle g = checked(H5Gopen2(f.get(), "particles", H5P_DEFAULT), H5Gclose, file, "/particles",
+                     "not a group");
+
+  ParticleFileMeta meta;
+  meta.type_names =
+      *read_string_attribute(g.get(), "type_names", "/particles@type_names", file, true);
+  {
+    std::set<std::string> seen;
+    for (const auto& s : meta.type_names) {
+      if (s.empty()) fail(file, "/particles@type_names", "empty type name");
+      if (!seen.insert(s).second)
+        fail(file, "/particles@type_names", "duplicate type name \"" + s + "\"");
+    }
+  }
+  const auto lo = *read_numeric_attribute<double>(g.get(), "box_lo", "/particles@box_lo",
+                                                  H5T_NATIVE_DOUBLE, H5T_FLOAT, 3, file, true);
+  const auto hi = *read_numeric_attribute<double>(g.get(), "box_hi", "/particles@box_hi",
+                                                  H5T_NATIVE_DOUBLE, H5T_FLOAT, 3, file, true);
+  const auto per = *read_numeric_attribute<std::int32_t>(
+      g.get(), "periodic", "/particles@periodic", H5T_NATIVE_INT32, H5T_INTEGER, 3, file, true);
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]))
+      fail(file, "/particles@box_lo", "box bounds must be finite");
+    if (!(hi[a] > lo[a]))
+      fail(file, "/particles@box_hi",
+           "box_hi must exceed box_lo on every axis (axis " + std::to_string(a) + ": " +
+               number_text(hi[a]) + " <= " + number_text(lo[a]) + ")");
+    meta.box.lo[a] = lo[a];
+    meta.box.hi[a] = hi[a];
+    meta.box.periodic[a] = per[a] != 0;
+  }
+  if (auto s = read_numeric_attribute<std::uint64_t>(
+          g.get(), "step", "/particles@step", H5T_NATIVE_UINT64, H5T_INTEGER, 1, file, false))
+    meta.step = s->front();
+  if (auto t = read_numeric_attribute<double>(g.get(), "time", "/particles@time", H5T_NATIVE_DOUBLE,
+                                              H5T_FLOAT, 1, file, false)) {
+    if (!std::isfinite(t->front())) fail(file, "/particles@time", "must be finite");
+    meta.time = t->front();
+  }
+  if (auto s = read_scalar_string(f.get(), "created_by", "/@created_by", file))
+    meta.created_by = *s;
+  if (auto s = read_scalar_string(f.get(), "provenance", "/@provenance", file))
+    meta.provenance_json = *s;
+  if (auto s = read_scalar_string(f.get(), "length_unit", "/@length_unit", file))
+    meta.length_unit = *s;
+  if (auto s = read_scalar_string(f.get(), "mesorock_version", "/@mesorock_version", file))
+    meta.mesorock_version = *s;
+  if (auto s = read_scalar_string(f.get(), "git_commit", "/@git_commit", file))
+    meta.git_commit = *s;
+
+  hsize_t n = 0;
+  const auto pos = read_dataset<double>(g.get(), "position", H5T_NATIVE_DOUBLE, H5T_FLOAT, 3,
+                                        std::nullopt, file, &n);
+  const auto vel =
+      read_dataset<double>(g.get(), "velocity", H5T_NATIVE_DOUBLE, H5T_FLOAT, 3, n, file, nullptr);
+  const auto type = read_dataset<std::int32_t>(g.get(), "type", H5T_NATIVE_INT32, H5T_INTEGER, 0, n,
+                                               file, nullptr);
+  const auto id =
+      read_dataset<std::int64_t>(g.get(), "id", H5T_NATIVE_INT64, H5T_INTEGER, 0, n, file, nullptr);
+
+  const auto ntypes = static_cast<std::int64_t>(meta.type_names.size());
+  ParticleSet p;
+  p.reserve(static_cast<size_t>(n));
+  for (size_t i = 0; i < static_cast<size_t>(n); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(pos[3 * i + static_cast<size_t>(c)]))
+        fail(file, "/particles/position", "entry " + std::to_string(i) + " is not finite");
+      if (!std::isfinite(vel[3 * i + static_cast<size_t>(c)]))
+        fail(file, "/particles/velocity", "entry " + std::to_string(i) + " is not finite");
+    }
+    if (type[i] < 0 || type[i] >= ntypes)
+      fail(file, "/particles/type",
+           "entry " + std::to_string(i) + " is " + std::to_string(type[i]) + ", outside 0.." +
+               std::to_string(ntypes - 1) + " (" + std::to_string(ntypes) +
+               " names in type_names)");
+    p.add(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], vel[3 * i], vel[3 * i + 1], vel[3 * i + 2],
+          type[i], id[i]);
+  }
+  {
+    std::vector<std::int64_t> sorted(id);
+    std::sort(sorted.begin(), sorted.end());
+    const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
+    if (dup != sorted.end()) fail(file, "/particles/id", "duplicate id " + std::to_string(*dup));
+  }
+  if (meta_out) *meta_out = std::move(meta);
+  return p;
+}
+
+void write_particle_xdmf(const fs::path& xmf, const fs::path& h5, std::size_t n,
+                         std::optional<double> time) {
+  // The data path is relative to the .xmf's folder, so the pair can be moved together.
+  const fs::path xmf_dir = fs::absolute(xmf).parent_path().lexically_normal();
+  const fs::path h5_abs = fs::absolute(h5).lexically_normal();
+  fs::path rel = h5_abs.lexically_relative(xmf_dir);
+  if (rel.empty()) rel = h5_abs;
+  const std::string data = xml_escape(rel.generic_string());
+  const std::string N = std::to_string(n);
+
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" ?>\n"
+    << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+    << "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n"
+    << "  <Domain>\n"
+    << "    <Grid Name=\"particles\" GridType=\"Uniform\">\n";
+  if (time) x << "      <Time Value=\"" << number_text(*time) << "\"/>\n";
+  x << "      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << N
+    << "\" NodesPerElement=\"1\"/>\n"
+    << "      <Geometry GeometryType=\"XYZ\">\n"
+    << "        <DataItem Dimensions=\"" << N
+    << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << data
+    << ":/particles/position</DataItem>\n"
+    << "      </Geometry>\n"
+    << "      <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n"
+    << "        <DataItem Dimensions=\"" << N
+    << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << data
+    << ":/particles/velocity</DataItem>\n"
+    << "      </Attribute>\n"
+    << "      <Attribute Name=\"type\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+    << "        <DataItem Dimensions=\"" << N
+    << "\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">" << data
+    << ":/particles/type</DataItem>\n"
+    << "      </Attribute>\n"
+    << "      <Attribute Name=\"id\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+    << "        <DataItem Dimensions=\"" << N
+    << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << data
+    << ":/particles/id</DataItem>\n"
+    << "      </Attribute>\n"
+    << "    </Grid>\n"
+    << "  </Domain>\n"
+    << "</Xdmf>\n";
+  write_text_atomically(xmf, x.str());
+}
+
+}  // namespace mesorock::sim

@@ -1,0 +1,300 @@
+#include "sim/simulation.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "mesorock/errors.h"
+#include "sim/engine_cpu.h"
+#include "sim/state.h"
+#include "sim/terms.h"
+#if defined(MESOROCK_HAVE_CUDA)
+#include "sim/cuda/engine_cuda.h"
+#endif
+
+namespace mesorock::sim {
+
+namespace {
+
+void check_finite(double v, const std::string& what) {
+  if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
+}
+
+void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt) {
+  if (m.ntypes() < 1) throw ConfigError("model has no particle types");
+  if (m.ntypes() > 32) throw ConfigError("at most 32 particle types are supported");
+  if (m.pairs.size() != static_cast<size_t>(m.ntypes() * m.ntypes()))
+    throw ConfigError("pair table size does not match the number of types");
+  check_finite(dt, "dt");
+  if (!(dt > 0)) throw ConfigError("dt must be positive");
+  check_finite(m.rd, "rd");
+  if (!(m.rd > 0 && m.rd <= 1)) throw ConfigError("rd must be in (0, 1] (units of rc)");
+  check_finite(m.kBT, "kBT");
+  if (!(m.kBT > 0)) throw ConfigError("kBT must be positive");
+  check_finite(m.lambda, "lambda");
+  if (!(m.lambda >= 0 && m.lambda <= 1)) throw ConfigError("lambda must be in [0, 1]");
+  for (int a = 0; a < m.ntypes(); ++a) {
+    for (int b = 0; b < m.ntypes(); ++b) {
+      const PairSpec& q = m.pair(a, b);
+      const PairSpec& r = m.pair(b, a);
+      if (q.A != r.A || q.B != r.B || q.gamma != r.gamma)
+        throw ConfigError("pair table is not symmetric for types " + m.types[a].name + ", " +
+                          m.types[b].name);
+      check_finite(q.A, "A");
+      check_finite(q.B, "B");
+      check_finite(q.gamma, "gamma");
+      if (q.gamma < 0) throw ConfigError("gamma must be >= 0");
+      if (m.conservative == ConservativeKind::DPD && q.B != 0)
+        throw ConfigError("B is only meaningful for the mdpd conservative force");
+    }
+  }
+  for (int a = 0; a < 3; ++a) {
+    check_finite(box.lo[a], "box lo");
+    check_finite(box.hi[a], "box hi");
+    const double len = box.length(a);
+    if (!(len > 0)) throw ConfigError("box hi must exceed lo on every axis");
+    // Minimum image needs L >= 2 rc, else a pair would interact through two images.
+    if (box.periodic[a] && len < 2.0)
+      throw ConfigError("a periodic box edge must be at least 2 rc long");
+  }
+  const size_t n = p.size();
+  if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
+      p.vz.size() != n || p.type.size() != n || p.id.size() != n)
+    throw ConfigError("particle arrays have different lengths");
+  if (n > static_cast<size_t>(2147483647)) throw ConfigError("too many particles for one rank");
+  for (size_t i = 0; i < n; ++i) {
+    if (p.type[i] < 0 || p.type[i] >= m.ntypes()) {
+      std::ostringstream s;
+      s << "particle " << p.id[i] << " has type " << p.type[i] << " outside 0.." << m.ntypes() - 1;
+      throw ConfigError(s.str());
+    }
+    const double c[6] = {p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i]};
+    for (double v : c)
+      if (!std::isfinite(v)) {
+        std::ostringstream s;
+        s << "particle " << p.id[i] << " has a non-finite position or velocity";
+        throw ConfigError(s.str());
+      }
+    for (int a = 0; a < 3; ++a) {
+      if (c[a] < box.lo[a] || c[a] > box.hi[a]) {
+        std::ostringstream s;
+        s << "particle " << p.id[i] << " lies outside the box";
+        throw ConfigError(s.str());
+      }
+    }
+  }
+}
+
+template <class Real>
+class SimulationImpl final : public Simulation {
+ public:
+  SimulationImpl(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
+                 const SimulationOptions& opt)
+      : model_(model), box_(box), dt_(dt) {
+    HostState<Real>& s = state_;
+    const int nt = model.ntypes();
+    s.ntypes = nt;
+    s.table.resize(static_cast<size_t>(nt * nt));
+    for (int a = 0; a < nt; ++a)
+      for (int b = 0; b < nt; ++b) {
+        const PairSpec& q = model.pair(a, b);
+        PairParams<Real>& t = s.table[static_cast<size_t>(a * nt + b)];
+        t.A = static_cast<Real>(q.A);
+        t.B = static_cast<Real>(q.B);
+        t.gamma = static_cast<Real>(q.gamma);
+        t.sigma = static_cast<Real>(std::sqrt(2.0 * q.gamma * model.kBT));
+      }
+    s.body_force.resize(static_cast<size_t>(3 * nt));
+    for (int t = 0; t < nt; ++t) {
+      for (int a = 0; a < 3; ++a)
+        s.body_force[static_cast<size_t>(3 * t + a)] = static_cast<Real>(model.types[t].body_force[a]);
+      if (model.types[t].frozen) s.frozen_mask |= (1u << t);
+    }
+    for (int a = 0; a < 3; ++a) {
+      s.box.lo[a] = static_cast<Real>(box.lo[a]);
+      s.box.length[a] = static_cast<Real>(box.length(a));
+      s.box.periodic[a] = box.periodic[a];
+    }
+    s.grid = CellGrid<Real>::make(s.box, Real(1));
+    s.rd = static_cast<Real>(model.rd);
+    s.dt = static_cast<Real>(dt);
+    s.lambda = static_cast<Real>(model.lambda);
+    s.seed = model.seed;
+    s.step = 0;
+    const size_t n = p.size();
+    auto conv = [&](const std::vector<double>& in, std::vector<Real>& out) {
+      out.resize(n);
+      for (size_t i = 0; i < n; ++i) out[i] = static_cast<Real>(in[i]);
+    };
+    conv(p.x, s.x);
+    conv(p.y, s.y);
+    conv(p.z, s.z);
+    conv(p.vx, s.vx);
+    conv(p.vy, s.vy);
+    conv(p.vz, s.vz);
+    // A position exactly on the upper face of a periodic box belongs at the lower face.
+    for (size_t i = 0; i < n; ++i) {
+      Real* c[3] = {&s.x[i], &s.y[i], &s.z[i]};
+      for (int a = 0; a < 3; ++a) {
+        const Real hi = s.box.lo[a] + s.box.length[a];
+        if (*c[a] >= hi) *c[a] = s.box.periodic[a] ? s.box.lo[a] : std::nextafter(hi, s.box.lo[a]);
+        if (*c[a] < s.box.lo[a]) *c[a] = s.box.lo[a];
+      }
+    }
+    s.type = p.type;
+    s.id = p.id;
+
+    dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
+    if (opt.backend == BackendKind::CPU) {
+      engine_ = make_cpu_engine<Real>(model, opt.threads);
+    } else {
+#if defined(MESOROCK_HAVE_CUDA)
+      engine_ = make_cuda_engine<Real>(model, opt.device);
+#else
+      throw DeviceError(cuda_unavailable_reason());
+#endif
+    }
+    engine_->initialize(s);
+    host_current_ = true;
+  }
+
+  void run(std::uint64_t steps) override {
+    engine_->advance(steps);
+    host_current_ = false;
+  }
+  void set_dt(double dt) override {
+    if (!(dt > 0) || !std::isfinite(dt)) throw ConfigError("dt must be a positive number");
+    dt_ = dt;
+    engine_->set_dt(static_cast<Real>(dt));
+  }
+  double dt() const override { return dt_; }
+  std::uint64_t step() const override { return engine_->step(); }
+  size_t size() const override { return static_cast<size_t>(state_.size()); }
+
+  ParticleSet particles() override {
+    sync();
+    ParticleSet p;
+    p.x = in_original_order(state_.x);
+    p.y = in_original_order(state_.y);
+    p.z = in_original_order(state_.z);
+    p.vx = in_original_order(state_.vx);
+    p.vy = in_original_order(state_.vy);
+    p.vz = in_original_order(state_.vz);
+    p.type = in_original_order<std::int32_t, std::int32_t>(state_.type);
+    p.id = in_original_order<std::int64_t, std::int64_t>(state_.id);
+    return p;
+  }
+
+  std::vector<double> densities() override {
+    sync();
+    return in_original_order(state_.rho);
+  }
+
+  std::array<std::vector<double>, 3> forces() override {
+    sync();
+    return {in_original_order(state_.fx), in_original_order(state_.fy),
+            in_original_order(state_.fz)};
+  }
+
+  double kinetic_temperature() override {
+    sync();
+    double sum = 0;
+    size_t mobile = 0;
+    for (int i = 0; i < state_.size(); ++i) {
+      if ((state_.frozen_mask >> state_.type[i]) & 1u) continue;
+      sum += double(state_.vx[i]) * state_.vx[i] + double(state_.vy[i]) * state_.vy[i] +
+             double(state_.vz[i]) * state_.vz[i];
+      ++mobile;
+    }
+    return mobile ? sum / (3.0 * static_cast<double>(mobile)) : 0.0;
+  }
+
+  std::array<double, 3> momentum() override {
+    sync();
+    std::array<double, 3> m{0, 0, 0};
+    for (int i = 0; i < state_.size(); ++i) {
+      if ((state_.frozen_mask >> state_.type[i]) & 1u) continue;
+      m[0] += state_.vx[i];
+      m[1] += state_.vy[i];
+      m[2] += state_.vz[i];
+    }
+    return m;
+  }
+
+  StressSample stress() override {
+    sync();
+    StressSample out;
+    out.volume = box_.volume();
+    const double inv_v = 1.0 / out.volume;
+    for (int i = 0; i < state_.size(); ++i) {
+      if ((state_.frozen_mask >> state_.type[i]) & 1u) continue;
+      const double v[3] = {double(state_.vx[i]), double(state_.vy[i]), double(state_.vz[i])};
+      out.kinetic[0] += v[0] * v[0];
+      out.kinetic[1] += v[1] * v[1];
+      out.kinetic[2] += v[2] * v[2];
+      out.kinetic[3] += v[0] * v[1];
+      out.kinetic[4] += v[0] * v[2];
+      out.kinetic[5] += v[1] * v[2];
+    }
+    const VirialSums w = engine_->virial();
+    for (int c = 0; c < 6; ++c) {
+      out.kinetic[c] *= inv_v;
+      out.conservative[c] = w.conservative[c] * inv_v;
+      out.dissipative[c] = w.dissipative[c] * inv_v;
+      out.random[c] = w.random[c] * inv_v;
+    }
+    return out;
+  }
+
+  const Model& model() const override { return model_; }
+  const BoxSpec& box() const override { return box_; }
+  std::string backend_name() const override { return engine_->name(); }
+  std::string pass_name() const override { return pass_name_; }
+
+ private:
+  // Storage is sorted by cell; callers see particles in the order they were given.
+  template <class In, class Out = double>
+  std::vector<Out> in_original_order(const std::vector<In>& a) const {
+    std::vector<Out> out(a.size());
+    for (size_t k = 0; k < a.size(); ++k) out[static_cast<size_t>(state_.origin[k])] = static_cast<Out>(a[k]);
+    return out;
+  }
+
+  void sync() {
+    if (!host_current_) {
+      engine_->download(state_);
+      host_current_ = true;
+    }
+  }
+
+  Model model_;
+  BoxSpec box_;
+  double dt_;
+  HostState<Real> state_;
+  std::unique_ptr<Engine<Real>> engine_;
+  std::string pass_name_;
+  bool host_current_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& box,
+                                            const ParticleSet& particles, double dt,
+                                            const SimulationOptions& options) {
+  validate(model, box, particles, dt);
+  if (options.backend == BackendKind::CUDA) {
+    const std::string why = cuda_unavailable_reason();
+    if (!why.empty()) throw DeviceError(why);
+  }
+  if (model.precision == Precision::Single)
+    return std::make_unique<SimulationImpl<float>>(model, box, particles, dt, options);
+  return std::make_unique<SimulationImpl<double>>(model, box, particles, dt, options);
+}
+
+#if !defined(MESOROCK_HAVE_CUDA)
+std::string cuda_unavailable_reason() {
+  return "backend cuda: this build has no CUDA backend (nvcc was not found when it was "
+         "configured); use --backend cpu";
+}
+#endif
+
+}  // namespace mesorock::sim

@@ -1,0 +1,91 @@
+#pragma once
+// Host-side solver state in the run's precision (SoA). The CPU engine works on it in place; the
+// CUDA engine mirrors it on the device and writes it back only when an output asks.
+#include <cstdint>
+#include <vector>
+
+#include "sim/box.h"
+#include "sim/cell_grid.h"
+#include "sim/kernels.h"
+#include "sim/model.h"
+#include "sim/pair_terms.h"
+
+namespace mesorock::sim {
+
+template <class Real>
+struct HostState {
+  std::vector<Real> x, y, z, vx, vy, vz, vex, vey, vez, fx, fy, fz, rho;
+  std::vector<std::int32_t> type;
+  std::vector<std::int64_t> id;
+  // Where each stored particle stood in the initial ParticleSet: engines keep particles sorted by
+  // cell, and outputs are returned in the caller's original order through this.
+  std::vector<std::int32_t> origin;
+  std::vector<int> cell_start;  // cell list over the cell-sorted storage (built by the engine)
+
+  std::vector<PairParams<Real>> table;  // ntypes x ntypes
+  std::vector<Real> body_force;         // ntypes x 3
+  std::uint32_t frozen_mask = 0;
+  int ntypes = 0;
+
+  Box<Real> box;
+  CellGrid<Real> grid;
+  Real rd = Real(0.75), dt = Real(0.01), lambda = Real(0.5);
+  std::uint64_t seed = 0;
+  std::uint64_t step = 0;
+
+  int size() const { return static_cast<int>(x.size()); }
+
+  // Raw-pointer view of the host arrays for the kernel bodies.
+  StepView<Real> view() {
+    StepView<Real> v;
+    v.n = size();
+    v.x = x.data(), v.y = y.data(), v.z = z.data();
+    v.vx = vx.data(), v.vy = vy.data(), v.vz = vz.data();
+    v.vex = vex.data(), v.vey = vey.data(), v.vez = vez.data();
+    v.fx = fx.data(), v.fy = fy.data(), v.fz = fz.data();
+    v.rho = rho.data();
+    v.type = type.data();
+    v.id = id.data();
+    v.cell_start = cell_start.data();
+    v.box = box;
+    v.grid = grid;
+    v.table = table.data();
+    v.ntypes = ntypes;
+    v.body_force = body_force.data();
+    v.frozen_mask = frozen_mask;
+    v.rd = rd;
+    v.dt = dt;
+    v.inv_sqrt_dt = Real(1) / static_cast<Real>(std::sqrt(static_cast<double>(dt)));
+    v.lambda = lambda;
+    v.seed = seed;
+    v.step = step;
+    return v;
+  }
+};
+
+// Sums over particles of the per-particle virial halves (see virial_of_particle).
+struct VirialSums {
+  double conservative[6] = {0, 0, 0, 0, 0, 0};
+  double dissipative[6] = {0, 0, 0, 0, 0, 0};
+  double random[6] = {0, 0, 0, 0, 0, 0};
+};
+
+// A backend: advances the state by whole steps and answers the reductions observables need.
+template <class Real>
+class Engine {
+ public:
+  virtual ~Engine() = default;
+  virtual const char* name() const = 0;
+  // Takes the host state as the initial condition and computes the forces of step `host.step`.
+  virtual void initialize(HostState<Real>& host) = 0;
+  virtual void advance(std::uint64_t steps) = 0;
+  virtual void set_dt(Real dt) = 0;
+  // Brings host positions, velocities, forces and densities up to date.
+  virtual void download(HostState<Real>& host) = 0;
+  // Virial of the current configuration, with the same v~ and random numbers the last force pass
+  // used (the pair RNG is keyed by step, so nothing needs storing).
+  virtual VirialSums virial() = 0;
+  virtual std::uint64_t step() const = 0;
+};
+
+}  // namespace mesorock::sim
