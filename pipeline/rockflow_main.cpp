@@ -47,7 +47,8 @@ int main(int argc, char** argv) {
     run->add_option("scene", scene_path, "scene file (TOML, see docs/scene.md)")->required();
     run->add_option("--out", out_dir, "output folder")->capture_default_str();
     run->add_option("--backend", backend, "cpu or cuda")->capture_default_str();
-    run->add_option("--threads", threads, "CPU threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    run->add_option("--threads", threads, "CPU threads (0: all cores)")
+        ->check(CLI::NonNegativeNumber);
 
     auto* val = app.add_subcommand("validate", "run a built-in physics validation case");
     std::string case_name, size = "small", kernel = "warren";
@@ -58,7 +59,8 @@ int main(int argc, char** argv) {
     val->add_option("--density-kernel", kernel, "warren or lucy")
         ->check(CLI::IsMember({"warren", "lucy"}));
     val->add_option("--backend", backend, "cpu or cuda");
-    val->add_option("--threads", threads, "CPU threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    val->add_option("--threads", threads, "CPU threads (0: all cores)")
+        ->check(CLI::NonNegativeNumber);
     val->add_flag("--json", json, "print one JSON object");
 
     auto* bench = app.add_subcommand("bench", "measure million particle-steps per second");
@@ -71,11 +73,14 @@ int main(int argc, char** argv) {
     bench->add_option("--particles", bo.particles, "particle count")->capture_default_str();
     bench->add_option("--steps", bo.steps, "timed steps")->capture_default_str();
     bench->add_option("--backend", backend, "cpu or cuda");
-    bench->add_option("--threads", threads, "CPU threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    bench->add_option("--threads", threads, "CPU threads (0: all cores)")
+        ->check(CLI::NonNegativeNumber);
     bench->add_option("--precision", precision, "single or double")
         ->check(CLI::IsMember({"single", "double"}));
     bench->add_flag("--compare-cpu", compare_cpu, "also run the CPU backend on the same case");
     bench->add_flag("--json", bench_json, "print JSON");
+    bool profile = false;
+    bench->add_flag("--profile", profile, "CUDA: also time each pass (kick, sort, density, force)");
 
     try {
       app.parse(argc, argv);
@@ -105,7 +110,8 @@ int main(int argc, char** argv) {
       }
       if (case_name.empty()) throw mesorock::ConfigError("validate: name a case (see --list)");
       const mp::ValidationCase* c = mp::find_validation_case(case_name);
-      if (!c) throw mesorock::ConfigError("validate: unknown case '" + case_name + "' (see --list)");
+      if (!c)
+        throw mesorock::ConfigError("validate: unknown case '" + case_name + "' (see --list)");
       require_backend(so.backend);
       mp::ValidateOptions vo;
       vo.size = size == "full" ? mp::CaseSize::Full : mp::CaseSize::Small;
@@ -123,11 +129,13 @@ int main(int argc, char** argv) {
       require_backend(so.backend);
       bo.precision = precision == "double" ? ms::Precision::Double : ms::Precision::Single;
       bo.sim = so;
+      bo.sim.profile = profile;
       const mp::BenchResult r = mp::run_bench(bo);
       mp::BenchResult cpu;
       if (compare_cpu) {
         mp::BenchOptions co = bo;
         co.sim.backend = ms::BackendKind::CPU;
+        co.sim.profile = false;
         co.steps = std::max<std::uint64_t>(5, bo.steps / 20);
         cpu = mp::run_bench(co);
       }

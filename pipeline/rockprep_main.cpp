@@ -1,24 +1,37 @@
 // rockprep: image stack -> phase grids -> pore statistics -> particles (subcommands grow with the
-// rockprep issues).
+// rockprep issues). Part 1: load, filter, segment, synth (see docs/voxel.md).
 #include <CLI/CLI.hpp>
 
 #include <iostream>
+#include <vector>
 
 #include "mesorock/version.h"
 #include "pipeline/exit_codes.h"
+#include "pipeline/prep/common.h"
 
 int main(int argc, char** argv) {
+  namespace prep = mesorock::pipeline::prep;
   return mesorock::pipeline::run_main("rockprep", [&]() -> int {
+    prep::set_command_line(argc, argv);
     CLI::App app{"rockprep: turn a rock image stack into phase grids and particle sets"};
     app.set_version_flag("--version", std::string("rockprep ") + mesorock::kVersion + " (" +
                                           mesorock::kGitCommit + ")");
+    const std::vector<prep::Command> commands = {
+        prep::add_load_command(app), prep::add_filter_command(app), prep::add_segment_command(app),
+        prep::add_synth_command(app)};
     app.require_subcommand(0, 1);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-      return app.exit(e) == 0 ? 0 : mesorock::pipeline::kExitBadInput;
+      if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+      // One line, like every other rockprep error.
+      std::cerr << "rockprep: error: " << e.what() << " (see rockprep --help)\n";
+      return mesorock::pipeline::kExitBadInput;
     }
-    if (argc == 1) std::cout << app.help();
+    for (const prep::Command& command : commands) {
+      if (command.app->parsed()) return command.run();
+    }
+    std::cout << app.help();
     return 0;
   });
 }

@@ -36,24 +36,28 @@ struct CellGrid {
     return (cz * dims[1] + cy) * dims[0] + cx;
   }
 
-  // The distinct neighbour coordinates of cell c along one axis (itself included).
-  // With fewer than 3 cells on a periodic axis, c-1 and c+1 are the same cell (n = 2) or c itself
-  // (n = 1); listing them once is what keeps every pair from being counted twice.
-  MESO_HD MESO_INLINE int axis_neighbours(int c, int axis, bool periodic, int out[3]) const {
+  // The distinct neighbour coordinates of cell c along one axis (itself included), and the image
+  // shift to add to a neighbour's coordinate so that x_i - (x_j + shift) is the minimum image.
+  // Returns the count. With fewer than 3 cells on a periodic axis, c-1 and c+1 are the same cell
+  // (n = 2) or c itself (n = 1): each is listed once, which keeps every pair from being counted
+  // twice, and `needs_minimum_image` is set because one cell then holds neighbours of both images.
+  MESO_HD MESO_INLINE int axis_neighbours(int c, int axis, bool periodic, Real length, int out[3],
+                                          Real shift[3], bool& needs_minimum_image) const {
     const int n = dims[axis];
+    needs_minimum_image = false;
+    shift[0] = shift[1] = shift[2] = Real(0);
     if (periodic) {
-      if (n == 1) {
-        out[0] = 0;
-        return 1;
-      }
-      if (n == 2) {
+      if (n < 3) {
+        needs_minimum_image = true;
         out[0] = 0;
         out[1] = 1;
-        return 2;
+        return n;
       }
       out[0] = c == 0 ? n - 1 : c - 1;
+      if (c == 0) shift[0] = -length;
       out[1] = c;
       out[2] = c == n - 1 ? 0 : c + 1;
+      if (c == n - 1) shift[2] = length;
       return 3;
     }
     int k = 0;

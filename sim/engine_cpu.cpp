@@ -88,9 +88,13 @@ class CpuEngine final : public Engine<Real> {
     }
   }
 
-  void set_dt(Real dt) override { s_->dt = dt; }
+  void set_dt(Real dt) override {
+    s_->dt = dt;
+  }
   void download(HostState<Real>&) override {}
-  std::uint64_t step() const override { return s_->step; }
+  std::uint64_t step() const override {
+    return s_->step;
+  }
 
   VirialSums virial() override {
     ThreadScope scope(threads_);
@@ -102,8 +106,9 @@ class CpuEngine final : public Engine<Real> {
       VirialSums local;
 #pragma omp for schedule(static)
       for (int k = 0; k < n; ++k) {
-        const auto w = virial_of_particle<Real, typename Terms::conservative,
-                                          typename Terms::thermostat>(v, k);
+        const auto w =
+            virial_of_particle<Real, typename Terms::conservative, typename Terms::thermostat>(v,
+                                                                                               k);
         for (int c = 0; c < 6; ++c) {
           local.conservative[c] += w.conservative[c];
           local.dissipative[c] += w.dissipative[c];
@@ -139,13 +144,11 @@ class CpuEngine final : public Engine<Real> {
     using C = typename Terms::conservative;
     if constexpr (C::needs_density) {
 #pragma omp parallel for schedule(static)
-      for (int k = 0; k < n; ++k)
-        density_of_particle<Real, typename C::density_kernel>(v, k);
+      for (int k = 0; k < n; ++k) density_of_particle<Real, typename C::density_kernel>(v, k);
     }
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < n; ++k)
-      force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force>(
-          v, k);
+      force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force>(v, k);
   }
 
   int threads_;

@@ -13,6 +13,10 @@
 namespace mesorock::sim {
 // Precision-preserving square root for kernel bodies (a bare sqrt(float) on the host would
 // promote to double).
-MESO_HD MESO_INLINE float real_sqrt(float v) { return sqrtf(v); }
-MESO_HD MESO_INLINE double real_sqrt(double v) { return sqrt(v); }
+MESO_HD MESO_INLINE float real_sqrt(float v) {
+  return sqrtf(v);
+}
+MESO_HD MESO_INLINE double real_sqrt(double v) {
+  return sqrt(v);
+}
 }  // namespace mesorock::sim

@@ -12,8 +12,8 @@ double seeded_uniform(std::uint64_t seed, std::uint64_t stream, std::uint64_t in
                       std::uint32_t component) {
   r123::Philox4x32 rng;
   r123::Philox4x32::ctr_type ctr = {{static_cast<std::uint32_t>(index),
-                                      static_cast<std::uint32_t>(index >> 32), component,
-                                      static_cast<std::uint32_t>(stream)}};
+                                     static_cast<std::uint32_t>(index >> 32), component,
+                                     static_cast<std::uint32_t>(stream)}};
   r123::Philox4x32::key_type key = {
       {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)}};
   const auto out = rng(ctr, key);
@@ -67,12 +67,11 @@ void fill_lattice(ParticleSet& p, std::int32_t type, const std::array<double, 3>
   for (int k = 0; k < n[2]; ++k)
     for (int j = 0; j < n[1]; ++j)
       for (int i = 0; i < n[0]; ++i)
-        p.add(lo[0] + (i + 0.5) * step[0], lo[1] + (j + 0.5) * step[1],
-              lo[2] + (k + 0.5) * step[2], 0, 0, 0, type, next_id++);
+        p.add(lo[0] + (i + 0.5) * step[0], lo[1] + (j + 0.5) * step[1], lo[2] + (k + 0.5) * step[2],
+              0, 0, 0, type, next_id++);
 }
 
-void assign_maxwell_velocities(ParticleSet& p, const Model& model, double kBT,
-                               std::uint64_t seed) {
+void assign_maxwell_velocities(ParticleSet& p, const Model& model, double kBT, std::uint64_t seed) {
   const double s = std::sqrt(kBT);
   double sum[3] = {0, 0, 0};
   size_t mobile = 0;

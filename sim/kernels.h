@@ -54,6 +54,8 @@ struct StepView {
 };
 
 // Calls visit(j, dx, dy, dz, r2) for every particle j != i within the cutoff rc = 1.
+// Periodic images come from per-cell shifts (no per-pair branch) except on axes with fewer than 3
+// cells, where minimum_image decides per pair. Either way dx_ij = -dx_ji exactly.
 template <class Real, class Visit>
 MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visit&& visit) {
   const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
@@ -61,19 +63,26 @@ MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visi
   const int cy = v.grid.coordinate(yi, v.box.lo[1], 1);
   const int cz = v.grid.coordinate(zi, v.box.lo[2], 2);
   int nx[3], ny[3], nz[3];
-  const int kx = v.grid.axis_neighbours(cx, 0, v.box.periodic[0], nx);
-  const int ky = v.grid.axis_neighbours(cy, 1, v.box.periodic[1], ny);
-  const int kz = v.grid.axis_neighbours(cz, 2, v.box.periodic[2], nz);
+  Real sx[3], sy[3], sz[3];
+  bool mx, my, mz;
+  const int kx = v.grid.axis_neighbours(cx, 0, v.box.periodic[0], v.box.length[0], nx, sx, mx);
+  const int ky = v.grid.axis_neighbours(cy, 1, v.box.periodic[1], v.box.length[1], ny, sy, my);
+  const int kz = v.grid.axis_neighbours(cz, 2, v.box.periodic[2], v.box.length[2], nz, sz, mz);
   for (int c = 0; c < kz; ++c) {
     for (int b = 0; b < ky; ++b) {
+      // Cells along x are contiguous in the cell index, and so are their particles: one run
+      // per (y, z) row unless x wraps around.
       for (int a = 0; a < kx; ++a) {
         const int cell = v.grid.index(nx[a], ny[b], nz[c]);
         const int end = v.cell_start[cell + 1];
         for (int j = v.cell_start[cell]; j < end; ++j) {
           if (j == i) continue;
-          const Real dx = v.box.minimum_image(xi - v.x[j], 0);
-          const Real dy = v.box.minimum_image(yi - v.y[j], 1);
-          const Real dz = v.box.minimum_image(zi - v.z[j], 2);
+          Real dx = (xi - v.x[j]) - sx[a];
+          Real dy = (yi - v.y[j]) - sy[b];
+          Real dz = (zi - v.z[j]) - sz[c];
+          if (mx) dx = v.box.minimum_image(dx, 0);
+          if (my) dy = v.box.minimum_image(dy, 1);
+          if (mz) dz = v.box.minimum_image(dz, 2);
           const Real r2 = dx * dx + dy * dy + dz * dz;
           if (r2 < Real(1)) visit(j, dx, dy, dz, r2);
         }
@@ -128,9 +137,9 @@ MESO_HD MESO_INLINE PairForce<Real> pair_force(const StepView<Real>& v, int i, i
   }
   if constexpr (Thermostat::enabled) {
     const Real inv_r = Real(1) / r;
-    const Real e_dot_v = (dx * (v.vex[i] - v.vex[j]) + dy * (v.vey[i] - v.vey[j]) +
-                          dz * (v.vez[i] - v.vez[j])) *
-                         inv_r;
+    const Real e_dot_v =
+        (dx * (v.vex[i] - v.vex[j]) + dy * (v.vey[i] - v.vey[j]) + dz * (v.vez[i] - v.vez[j])) *
+        inv_r;
     f.dissipative = Thermostat::dissipative(r, e_dot_v, p);
     const Real xi = pair_random<Real>(v.seed, v.step, static_cast<std::uint64_t>(v.id[i]),
                                       static_cast<std::uint64_t>(v.id[j]));

@@ -12,15 +12,19 @@ enum class ConservativeKind { DPD, MDPD };
 enum class DensityKernelKind { Warren, Lucy };
 enum class Precision { Single, Double };
 
-inline const char* to_string(ConservativeKind k) { return k == ConservativeKind::DPD ? "dpd" : "mdpd"; }
+inline const char* to_string(ConservativeKind k) {
+  return k == ConservativeKind::DPD ? "dpd" : "mdpd";
+}
 inline const char* to_string(DensityKernelKind k) {
   return k == DensityKernelKind::Warren ? "warren" : "lucy";
 }
-inline const char* to_string(Precision p) { return p == Precision::Single ? "single" : "double"; }
+inline const char* to_string(Precision p) {
+  return p == Precision::Single ? "single" : "double";
+}
 
 struct TypeSpec {
   std::string name;
-  bool frozen = false;                         // frozen wall particles never move
+  bool frozen = false;                        // frozen wall particles never move
   std::array<double, 3> body_force{0, 0, 0};  // force per particle (m = 1)
 };
 

@@ -42,8 +42,8 @@ struct DensityKernelLucy {
     if (r >= rd) return Real(0);
     const Real q = r / rd;
     const Real s = Real(1) - q;
-    return Real(105.0 / (16.0 * 3.14159265358979323846)) / (rd * rd * rd) * (Real(1) + 3 * q) *
-           s * s * s;
+    return Real(105.0 / (16.0 * 3.14159265358979323846)) / (rd * rd * rd) * (Real(1) + 3 * q) * s *
+           s * s;
   }
 };
 

@@ -106,7 +106,8 @@ class SimulationImpl final : public Simulation {
     s.body_force.resize(static_cast<size_t>(3 * nt));
     for (int t = 0; t < nt; ++t) {
       for (int a = 0; a < 3; ++a)
-        s.body_force[static_cast<size_t>(3 * t + a)] = static_cast<Real>(model.types[t].body_force[a]);
+        s.body_force[static_cast<size_t>(3 * t + a)] =
+            static_cast<Real>(model.types[t].body_force[a]);
       if (model.types[t].frozen) s.frozen_mask |= (1u << t);
     }
     for (int a = 0; a < 3; ++a) {
@@ -148,13 +149,14 @@ class SimulationImpl final : public Simulation {
       engine_ = make_cpu_engine<Real>(model, opt.threads);
     } else {
 #if defined(MESOROCK_HAVE_CUDA)
-      engine_ = make_cuda_engine<Real>(model, opt.device);
+      engine_ = make_cuda_engine<Real>(model, opt.device, opt.profile);
 #else
       throw DeviceError(cuda_unavailable_reason());
 #endif
     }
     engine_->initialize(s);
-    host_current_ = true;
+    // The initial forces may live only on the device: the next read downloads them.
+    host_current_ = false;
   }
 
   void run(std::uint64_t steps) override {
@@ -166,9 +168,15 @@ class SimulationImpl final : public Simulation {
     dt_ = dt;
     engine_->set_dt(static_cast<Real>(dt));
   }
-  double dt() const override { return dt_; }
-  std::uint64_t step() const override { return engine_->step(); }
-  size_t size() const override { return static_cast<size_t>(state_.size()); }
+  double dt() const override {
+    return dt_;
+  }
+  std::uint64_t step() const override {
+    return engine_->step();
+  }
+  size_t size() const override {
+    return static_cast<size_t>(state_.size());
+  }
 
   ParticleSet particles() override {
     sync();
@@ -245,17 +253,32 @@ class SimulationImpl final : public Simulation {
     return out;
   }
 
-  const Model& model() const override { return model_; }
-  const BoxSpec& box() const override { return box_; }
-  std::string backend_name() const override { return engine_->name(); }
-  std::string pass_name() const override { return pass_name_; }
+  const Model& model() const override {
+    return model_;
+  }
+  const BoxSpec& box() const override {
+    return box_;
+  }
+  std::string backend_name() const override {
+    return engine_->name();
+  }
+  std::string pass_name() const override {
+    return pass_name_;
+  }
+  std::size_t device_bytes() const override {
+    return engine_->device_bytes();
+  }
+  std::string profile_report() const override {
+    return engine_->profile_report();
+  }
 
  private:
   // Storage is sorted by cell; callers see particles in the order they were given.
   template <class In, class Out = double>
   std::vector<Out> in_original_order(const std::vector<In>& a) const {
     std::vector<Out> out(a.size());
-    for (size_t k = 0; k < a.size(); ++k) out[static_cast<size_t>(state_.origin[k])] = static_cast<Out>(a[k]);
+    for (size_t k = 0; k < a.size(); ++k)
+      out[static_cast<size_t>(state_.origin[k])] = static_cast<Out>(a[k]);
     return out;
   }
 

@@ -12,12 +12,15 @@
 namespace mesorock::sim {
 
 enum class BackendKind { CPU, CUDA };
-inline const char* to_string(BackendKind b) { return b == BackendKind::CPU ? "cpu" : "cuda"; }
+inline const char* to_string(BackendKind b) {
+  return b == BackendKind::CPU ? "cpu" : "cuda";
+}
 
 struct SimulationOptions {
   BackendKind backend = BackendKind::CPU;
-  int threads = 0;  // CPU backend: OpenMP threads; <= 0 means OpenMP's default
-  int device = 0;   // CUDA backend: device ordinal
+  int threads = 0;       // CPU backend: OpenMP threads; <= 0 means OpenMP's default
+  int device = 0;        // CUDA backend: device ordinal
+  bool profile = false;  // CUDA backend: time each pass with events (synchronises every step)
 };
 
 // Stress tensor parts in Voigt order xx yy zz xy xz yz; sigma = (kinetic + virial) / V, with the
@@ -60,14 +63,16 @@ class Simulation {
   virtual std::array<std::vector<double>, 3> forces() = 0;
 
   // Reductions over mobile particles.
-  virtual double kinetic_temperature() = 0;       // sum m v^2 / (3 N_mobile)
-  virtual std::array<double, 3> momentum() = 0;   // total momentum of mobile particles
-  virtual StressSample stress() = 0;              // kinetic + pair virials, per volume
+  virtual double kinetic_temperature() = 0;      // sum m v^2 / (3 N_mobile)
+  virtual std::array<double, 3> momentum() = 0;  // total momentum of mobile particles
+  virtual StressSample stress() = 0;             // kinetic + pair virials, per volume
 
   virtual const Model& model() const = 0;
   virtual const BoxSpec& box() const = 0;
   virtual std::string backend_name() const = 0;
-  virtual std::string pass_name() const = 0;  // the compiled term set this run uses
+  virtual std::string pass_name() const = 0;     // the compiled term set this run uses
+  virtual std::size_t device_bytes() const = 0;  // device memory held by the backend
+  virtual std::string profile_report() const = 0;
 };
 
 // Validates the inputs (ConfigError with the reason) and builds the simulation. Initial forces are

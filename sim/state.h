@@ -1,7 +1,9 @@
 #pragma once
 // Host-side solver state in the run's precision (SoA). The CPU engine works on it in place; the
 // CUDA engine mirrors it on the device and writes it back only when an output asks.
+#include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "sim/box.h"
@@ -86,6 +88,10 @@ class Engine {
   // used (the pair RNG is keyed by step, so nothing needs storing).
   virtual VirialSums virial() = 0;
   virtual std::uint64_t step() const = 0;
+  // Bytes of device memory this engine holds (0 on the CPU).
+  virtual std::size_t device_bytes() const { return 0; }
+  // Per-pass times when profiling was asked for ("" otherwise).
+  virtual std::string profile_report() const { return ""; }
 };
 
 }  // namespace mesorock::sim

@@ -22,19 +22,19 @@ template <class... Ts>
 struct TypeList {};
 
 // 3 conservative x 2 thermostat x 2 body force = 12 variants per precision.
-using CompiledTermSets = TypeList<
-    TermSet<ConservativeDPD, NoThermostat, NoBodyForce>,
-    TermSet<ConservativeDPD, NoThermostat, PerTypeBodyForce>,
-    TermSet<ConservativeDPD, DPDThermostat, NoBodyForce>,
-    TermSet<ConservativeDPD, DPDThermostat, PerTypeBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelWarren>, NoThermostat, NoBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelWarren>, NoThermostat, PerTypeBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelWarren>, DPDThermostat, NoBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelWarren>, DPDThermostat, PerTypeBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelLucy>, NoThermostat, NoBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelLucy>, NoThermostat, PerTypeBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelLucy>, DPDThermostat, NoBodyForce>,
-    TermSet<ConservativeMDPD<DensityKernelLucy>, DPDThermostat, PerTypeBodyForce>>;
+using CompiledTermSets =
+    TypeList<TermSet<ConservativeDPD, NoThermostat, NoBodyForce>,
+             TermSet<ConservativeDPD, NoThermostat, PerTypeBodyForce>,
+             TermSet<ConservativeDPD, DPDThermostat, NoBodyForce>,
+             TermSet<ConservativeDPD, DPDThermostat, PerTypeBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelWarren>, NoThermostat, NoBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelWarren>, NoThermostat, PerTypeBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelWarren>, DPDThermostat, NoBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelWarren>, DPDThermostat, PerTypeBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelLucy>, NoThermostat, NoBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelLucy>, NoThermostat, PerTypeBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelLucy>, DPDThermostat, NoBodyForce>,
+             TermSet<ConservativeMDPD<DensityKernelLucy>, DPDThermostat, PerTypeBodyForce>>;
 
 template <class Terms>
 bool term_set_matches(const Model& m) {
@@ -43,7 +43,8 @@ bool term_set_matches(const Model& m) {
   if constexpr (std::is_same_v<C, ConservativeDPD>) {
     cons = m.conservative == ConservativeKind::DPD;
   } else if constexpr (std::is_same_v<C, ConservativeMDPD<DensityKernelWarren>>) {
-    cons = m.conservative == ConservativeKind::MDPD && m.density_kernel == DensityKernelKind::Warren;
+    cons =
+        m.conservative == ConservativeKind::MDPD && m.density_kernel == DensityKernelKind::Warren;
   } else {
     cons = m.conservative == ConservativeKind::MDPD && m.density_kernel == DensityKernelKind::Lucy;
   }

@@ -32,7 +32,9 @@ BenchResult run_bench(const BenchOptions& o) {
     throw ConfigError("--case must be bulk or porous (got " + o.case_name + ")");
   }
   s.model.precision = o.precision;
-  auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
+  sim::SimulationOptions timed = o.sim;
+  timed.profile = false;  // the timed run never synchronises per step
+  auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, timed);
   const std::uint64_t warm = std::max<std::uint64_t>(5, o.steps / 10);
   sim->run(warm);
   (void)sim->kinetic_temperature();  // forces completion of queued device work
@@ -55,15 +57,31 @@ BenchResult run_bench(const BenchOptions& o) {
   // The final temperature read copies velocities back: a small, honest part of the timing.
   r.seconds = std::chrono::duration<double>(t2 - t1).count();
   r.mps = static_cast<double>(r.particles) * static_cast<double>(r.steps) / r.seconds / 1e6;
+  r.device_bytes_per_particle =
+      static_cast<double>(sim->device_bytes()) / static_cast<double>(r.particles);
+  if (o.sim.profile) {
+    // A separate, synchronising run for the per-pass breakdown.
+    sim.reset();
+    auto profiled = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
+    profiled->run(std::max<std::uint64_t>(5, o.steps / 4));
+    r.profile = profiled->profile_report();
+  }
   return r;
 }
 
 std::string format_bench_json(const BenchResult& r) {
-  nlohmann::json j = {{"case", r.case_name},       {"backend", r.backend},
-                      {"precision", r.precision},  {"pass", r.pass_name},
-                      {"particles", r.particles},  {"steps", r.steps},
-                      {"threads", r.threads},      {"seconds", r.seconds},
-                      {"mps", r.mps},              {"setup_seconds", r.setup_seconds}};
+  nlohmann::json j = {{"case", r.case_name},
+                      {"backend", r.backend},
+                      {"precision", r.precision},
+                      {"pass", r.pass_name},
+                      {"particles", r.particles},
+                      {"steps", r.steps},
+                      {"threads", r.threads},
+                      {"seconds", r.seconds},
+                      {"mps", r.mps},
+                      {"setup_seconds", r.setup_seconds},
+                      {"gpu_bytes_per_particle", r.device_bytes_per_particle}};
+  if (!r.profile.empty()) j["profile"] = r.profile;
   return j.dump();
 }
 
@@ -72,7 +90,11 @@ std::string format_bench_text(const BenchResult& r) {
   s << std::setprecision(4) << "bench " << r.case_name << ": " << r.particles << " particles x "
     << r.steps << " steps on " << r.backend;
   if (r.threads > 0) s << " (" << r.threads << " threads)";
-  s << ", " << r.precision << " precision: " << r.seconds << " s, " << r.mps << " MPS/s\n";
+  s << ", " << r.precision << " precision: " << r.seconds << " s, " << r.mps << " MPS/s";
+  if (r.device_bytes_per_particle > 0)
+    s << ", " << r.device_bytes_per_particle << " GPU bytes/particle";
+  s << "\n";
+  if (!r.profile.empty()) s << "  " << r.profile << "\n";
   return s.str();
 }
 

@@ -23,6 +23,8 @@ struct BenchResult {
   double seconds = 0;
   double mps = 0;  // million particle-steps per second
   double setup_seconds = 0;
+  double device_bytes_per_particle = 0;  // 0 on the CPU
+  std::string profile;                   // per-pass GPU times with --profile
 };
 
 // Builds the case, runs steps/10 (at least 5) warm-up steps, then times `steps` steps.

@@ -1,5 +1,7 @@
 #include "pipeline/flow/run_scene.h"
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -40,8 +42,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (scene.output.thermo_every > 0) {
     thermo.open(thermo_tmp);
     if (!thermo) throw IoError(thermo_path.string() + ": cannot open for writing");
-    thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-           << scene.path.string() << ", reduced units (rc = m = kBT = 1)\n";
+    thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene " << scene.path.string()
+           << ", reduced units (rc = m = kBT = 1)\n";
     thermo << "step,time,stage,temperature,pressure,px,py,pz\n";
     thermo << std::setprecision(10);
   }
@@ -52,8 +54,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     for (const auto& stage : scene.stages) {
       sim->set_dt(stage.dt);
       std::uint64_t done = 0;
-      const std::uint64_t chunk = scene.output.thermo_every > 0 ? scene.output.thermo_every
-                                                                 : std::max<std::uint64_t>(stage.steps, 1);
+      const std::uint64_t chunk = scene.output.thermo_every > 0
+                                      ? scene.output.thermo_every
+                                      : std::max<std::uint64_t>(stage.steps, 1);
       const auto t_stage = Clock::now();
       while (done < stage.steps) {
         const std::uint64_t n = std::min(chunk, stage.steps - done);
@@ -75,13 +78,17 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
           const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;
           const double eta = done > 0 ? el * static_cast<double>(stage.steps - done) / done : 0;
-          std::cerr << "\r  stage " << stage.name << ": " << done << "/" << stage.steps
-                    << " steps, " << std::setprecision(3) << rate << " MPS/s, ETA "
-                    << std::setprecision(3) << eta << " s   " << std::flush;
+          // On a terminal one line is redrawn; in a log, a line per tenth of the stage.
+          const bool tty = isatty(STDERR_FILENO);
+          const std::uint64_t tenth = std::max<std::uint64_t>(1, stage.steps / 10);
+          if (tty || done == stage.steps || (done / tenth) != ((done - n) / tenth))
+            std::cerr << (tty ? "\r" : "") << "  stage " << stage.name << ": " << done << "/"
+                      << stage.steps << " steps, " << std::setprecision(3) << rate << " MPS/s, ETA "
+                      << std::setprecision(3) << eta << " s" << (tty ? "   " : "\n") << std::flush;
         }
       }
       total_steps += stage.steps;
-      if (o.progress) std::cerr << "\n";
+      if (o.progress && isatty(STDERR_FILENO)) std::cerr << "\n";
     }
   } catch (...) {
     thermo.close();
@@ -129,8 +136,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       {"simulated_time", time},
       {"wall_seconds", std::chrono::duration<double>(Clock::now() - t_start).count()},
       {"run_seconds", run_seconds},
-      {"mps", run_seconds > 0 ? sim->size() * static_cast<double>(total_steps) / run_seconds / 1e6
-                              : 0.0},
+      {"mps",
+       run_seconds > 0 ? sim->size() * static_cast<double>(total_steps) / run_seconds / 1e6 : 0.0},
       {"final_temperature", T},
       {"units", "reduced: rc = m = kBT = 1"},
       {"scene", scene.source_text}};

@@ -23,8 +23,8 @@ struct Sampling {
 };
 
 struct BulkMeasurement {
-  MeanWithError pressure;     // kinetic + conservative virial (Groot & Warren)
-  MeanWithError temperature;  // kinetic
+  MeanWithError pressure;      // kinetic + conservative virial (Groot & Warren)
+  MeanWithError temperature;   // kinetic
   double vapour_fraction = 0;  // share of coarse bins below half the mean density, last sample
 };
 
@@ -132,7 +132,7 @@ CaseResult run_eos_mdpd(const ValidateOptions& o) {
   const bool full = o.size == CaseSize::Full;
   const double L = full ? 10 : 6;
   const double box[3] = {L, L, L};
-  const Sampling plan = full ? Sampling{2000, 20000, 10} : Sampling{1000, 4000, 10};
+  const Sampling plan = full ? Sampling{2000, 20000, 10} : Sampling{1000, 2000, 10};
   const std::string kernel = sim::to_string(o.density_kernel);
   if (o.density_kernel != sim::DensityKernelKind::Warren)
     r.notes.push_back("density kernel " + kernel +
@@ -149,8 +149,8 @@ CaseResult run_eos_mdpd(const ValidateOptions& o) {
       continue;
     }
     const double fit = warren_fit(rho, -40, 25, 0.75);
-    r.quantities.push_back(judged("pressure rho=" + fmt(rho, 3), m.pressure.mean,
-                                  m.pressure.error, fit, std::max(0.03 * std::abs(fit), 2.0),
+    r.quantities.push_back(judged("pressure rho=" + fmt(rho, 3), m.pressure.mean, m.pressure.error,
+                                  fit, std::max(0.03 * std::abs(fit), 2.0),
                                   "Warren 2003 fit (alpha 0.101, c 4.16, d 18); max(3%, 2.0)"));
   }
   // Below about 6.1 the fluid separates into liquid and vapour: detect it, report no EOS point.
@@ -161,10 +161,10 @@ CaseResult run_eos_mdpd(const ValidateOptions& o) {
     const double sbox[3] = {big, big, big};
     const auto s = make_bulk_mdpd(-40, 25, 0.75, 4.5, rho, sbox, seed++, o.density_kernel);
     const auto m = measure_bulk(s, o, 0.01, sep, "eos-mdpd rho=4 (phase separation)");
-    const Quantity q = judged(
-        "phase separation rho=4 (vapour bin fraction)", m.vapour_fraction, 0, 0.1, 0,
-        "PHYSICS.md: A = -40 coexists with vapour at liquid density 6.07; rho = 4 separates",
-        Comparison::AtLeast);
+    const Quantity q =
+        judged("phase separation rho=4 (vapour bin fraction)", m.vapour_fraction, 0, 0.1, 0,
+               "PHYSICS.md: A = -40 coexists with vapour at liquid density 6.07; rho = 4 separates",
+               Comparison::AtLeast);
     r.quantities.push_back(q);
     r.notes.push_back(q.pass ? "rho = 4: phase-separated into liquid and vapour (vapour bins " +
                                    fmt(m.vapour_fraction, 3) +
@@ -194,16 +194,16 @@ CaseResult run_conservation(const ValidateOptions& o) {
   for (std::uint64_t step = 0; step < total; step += every) {
     sim->run(every);
     const auto p = sim->momentum();
-    const double per = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) /
-                       static_cast<double>(sim->size());
+    const double per =
+        std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) / static_cast<double>(sim->size());
     worst_momentum = std::max(worst_momentum, per);
     if (sim->step() > skip) temperature.push_back(sim->kinetic_temperature());
   }
   r.quantities.push_back(judged("max |total momentum| per particle", worst_momentum, 0, 1e-10, 0,
-                                "exact pairwise antisymmetry: round-off only",
-                                Comparison::AtMost));
+                                "exact pairwise antisymmetry: round-off only", Comparison::AtMost));
   const auto t = block_average(temperature, 10);
-  r.quantities.push_back(judged("temperature", t.mean, t.error, 1.0, 0.02, "thermostat kBT = 1; 2%"));
+  r.quantities.push_back(
+      judged("temperature", t.mean, t.error, 1.0, 0.02, "thermostat kBT = 1; 2%"));
   return r;
 }
 

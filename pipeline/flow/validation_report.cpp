@@ -36,12 +36,13 @@ std::string format_case_text(const CaseResult& r) {
       t << q.reference;
       ref = t.str();
     }
-    s << std::left << std::setw(48) << q.name << std::right << std::setprecision(6)
-      << std::setw(14) << q.measured << std::setw(12) << std::setprecision(2) << q.error
-      << std::setw(14) << ref << std::setw(12) << std::setprecision(3) << q.tolerance << "  "
-      << (q.pass ? "pass" : "FAIL") << "\n";
+    s << std::left << std::setw(48) << q.name << std::right << std::setprecision(6) << std::setw(14)
+      << q.measured << std::setw(12) << std::setprecision(2) << q.error << std::setw(14) << ref
+      << std::setw(12) << std::setprecision(3) << q.tolerance << "  " << (q.pass ? "pass" : "FAIL")
+      << "\n";
   }
-  for (const auto& q : r.quantities) s << "  reference for '" << q.name << "': " << q.source << "\n";
+  for (const auto& q : r.quantities)
+    s << "  reference for '" << q.name << "': " << q.source << "\n";
   for (const auto& n : r.notes) s << "note: " << n << "\n";
   s << std::setprecision(3) << r.name << ": " << (r.pass() ? "PASS" : "FAIL") << " (" << r.seconds
     << " s)\n";

@@ -40,11 +40,13 @@ class DeviceBuffer {
   }
   void upload(const std::vector<T>& h) {
     resize(h.size());
-    if (size_) check(cudaMemcpy(ptr_, h.data(), size_ * sizeof(T), cudaMemcpyHostToDevice), "upload");
+    if (size_)
+      check(cudaMemcpy(ptr_, h.data(), size_ * sizeof(T), cudaMemcpyHostToDevice), "upload");
   }
   void download(std::vector<T>& h) const {
     h.resize(size_);
-    if (size_) check(cudaMemcpy(h.data(), ptr_, size_ * sizeof(T), cudaMemcpyDeviceToHost), "download");
+    if (size_)
+      check(cudaMemcpy(h.data(), ptr_, size_ * sizeof(T), cudaMemcpyDeviceToHost), "download");
   }
   T* get() const { return ptr_; }
   size_t size() const { return size_; }
@@ -64,7 +66,9 @@ class DeviceBuffer {
 };
 
 constexpr int kBlock = 128;
-inline int blocks_for(int n) { return (n + kBlock - 1) / kBlock; }
+inline int blocks_for(int n) {
+  return (n + kBlock - 1) / kBlock;
+}
 
 template <class Real>
 __global__ void kick_drift_kernel(StepView<Real> v) {
@@ -98,7 +102,8 @@ __global__ void cell_start_kernel(const int* sorted_cell, int n, int ncells, int
 }
 
 template <class T>
-__global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, const int* perm, int n) {
+__global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, const int* perm,
+                              int n) {
   const int k = blockIdx.x * blockDim.x + threadIdx.x;
   if (k < n) out[k] = in[perm[k]];
 }
@@ -134,7 +139,15 @@ class CudaEngine final : public Engine<Real> {
   using B = typename Terms::body_force;
 
  public:
-  explicit CudaEngine(int device) { check(cudaSetDevice(device), "cudaSetDevice"); }
+  CudaEngine(int device, bool profile) : profile_(profile) {
+    check(cudaSetDevice(device), "cudaSetDevice");
+    if (profile_)
+      for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
+  }
+  ~CudaEngine() override {
+    if (profile_)
+      for (auto& e : events_) cudaEventDestroy(e);
+  }
 
   const char* name() const override { return "cuda"; }
 
@@ -178,10 +191,14 @@ class CudaEngine final : public Engine<Real> {
   void advance(std::uint64_t steps) override {
     const int g = blocks_for(n_);
     for (std::uint64_t k = 0; k < steps; ++k) {
+      mark(0);
       kick_drift_kernel<<<g, kBlock>>>(view());
       ++step_;
       compute_forces();
+      mark(4);
       kick_kernel<<<g, kBlock>>>(view());
+      mark(5);
+      if (profile_) accumulate();
     }
     check(cudaGetLastError(), "step kernels");
   }
@@ -191,11 +208,11 @@ class CudaEngine final : public Engine<Real> {
 
   void download(HostState<Real>& host) override {
     check(cudaDeviceSynchronize(), "step");
-    DeviceBuffer<Real>* arrays[] = {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_,
-                                    &fx_, &fy_, &fz_, &rho_};
-    std::vector<Real>* targets[] = {&host.x, &host.y, &host.z, &host.vx, &host.vy, &host.vz,
-                                    &host.vex, &host.vey, &host.vez, &host.fx, &host.fy, &host.fz,
-                                    &host.rho};
+    DeviceBuffer<Real>* arrays[] = {&x_,   &y_,   &z_,  &vx_, &vy_, &vz_, &vex_,
+                                    &vey_, &vez_, &fx_, &fy_, &fz_, &rho_};
+    std::vector<Real>* targets[] = {&host.x,  &host.y,   &host.z,   &host.vx,  &host.vy,
+                                    &host.vz, &host.vex, &host.vey, &host.vez, &host.fx,
+                                    &host.fy, &host.fz,  &host.rho};
     for (int a = 0; a < 13; ++a) arrays[a]->download(*targets[a]);
     type_.download(host.type);
     id_.download(host.id);
@@ -253,6 +270,7 @@ class CudaEngine final : public Engine<Real> {
   void compute_forces() {
     const int g = blocks_for(n_);
     cell_index_kernel<<<g, kBlock>>>(view(), cell_.get(), index_.get());
+    mark(1);
     size_t temp = sort_temp_.size();
     int bits = 1;
     while ((1 << bits) < ncells_ + 1) ++bits;
@@ -271,11 +289,58 @@ class CudaEngine final : public Engine<Real> {
     origin_.swap(scratch_int_);
     gather_kernel<<<g, kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), n_);
     id_.swap(scratch_id_);
+    mark(2);
     const StepView<Real> v = view();
-    if constexpr (C::needs_density) density_kernel<Real, typename C::density_kernel><<<g, kBlock>>>(v);
+    if constexpr (C::needs_density)
+      density_kernel<Real, typename C::density_kernel><<<g, kBlock>>>(v);
+    mark(3);
     force_kernel<Real, C, T, B><<<g, kBlock>>>(v);
   }
 
+  // Profiling: events 0..5 bound kick_drift | sort | density | force | kick.
+  void mark(int k) {
+    if (profile_) check(cudaEventRecord(events_[k]), "cudaEventRecord");
+  }
+  void accumulate() {
+    check(cudaEventSynchronize(events_[5]), "profile sync");
+    for (int k = 0; k < 5; ++k) {
+      float ms = 0;
+      check(cudaEventElapsedTime(&ms, events_[k], events_[k + 1]), "cudaEventElapsedTime");
+      pass_ms_[k] += ms;
+    }
+    ++profiled_steps_;
+  }
+
+ public:
+  std::size_t device_bytes() const override {
+    std::size_t b = 0;
+    for (const DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_, &fx_,
+                                        &fy_, &fz_, &rho_, &scratch_real_, &body_force_})
+      b += a->size() * sizeof(Real);
+    for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_})
+      b += a->size() * sizeof(std::int32_t);
+    b += (id_.size() + scratch_id_.size()) * sizeof(std::int64_t);
+    for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
+      b += a->size() * sizeof(int);
+    b += sort_temp_.size() + table_.size() * sizeof(PairParams<Real>) +
+         virial_.size() * sizeof(double);
+    return b;
+  }
+
+  std::string profile_report() const override {
+    if (!profile_ || profiled_steps_ == 0) return "";
+    static const char* names[5] = {"kick_drift", "cell_sort", "density", "force", "kick"};
+    std::ostringstream s;
+    double total = 0;
+    for (double v : pass_ms_) total += v;
+    s << "per-step GPU time over " << profiled_steps_ << " steps (ms):";
+    for (int k = 0; k < 5; ++k)
+      s << " " << names[k] << " " << pass_ms_[k] / profiled_steps_ << " ("
+        << static_cast<int>(100 * pass_ms_[k] / total + 0.5) << "%)";
+    return s.str();
+  }
+
+ private:
   HostState<Real>* host_ = nullptr;
   int n_ = 0, ncells_ = 0;
   std::uint64_t step_ = 0;
@@ -289,21 +354,25 @@ class CudaEngine final : public Engine<Real> {
   DeviceBuffer<PairParams<Real>> table_;
   DeviceBuffer<Real> body_force_;
   DeviceBuffer<double> virial_;
+  bool profile_ = false;
+  cudaEvent_t events_[6] = {};
+  double pass_ms_[5] = {0, 0, 0, 0, 0};
+  std::uint64_t profiled_steps_ = 0;
 };
 
 }  // namespace
 
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device) {
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile) {
   std::unique_ptr<Engine<Real>> engine;
   dispatch_terms(model, [&](auto terms) {
-    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device);
+    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device, profile);
   });
   return engine;
 }
 
-template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int);
-template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int);
+template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int, bool);
+template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int, bool);
 
 std::string cuda_unavailable_reason() {
   int count = 0;

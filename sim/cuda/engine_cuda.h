@@ -9,6 +9,6 @@
 namespace mesorock::sim {
 
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device);
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile);
 
 }  // namespace mesorock::sim

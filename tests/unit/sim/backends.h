@@ -28,10 +28,10 @@ inline std::string backend_test_name(const ::testing::TestParamInfo<sim::Backend
   return sim::to_string(info.param);
 }
 
-#define MESOROCK_ON_EVERY_BACKEND(suite)                                                \
-  INSTANTIATE_TEST_SUITE_P(Backends, suite,                                             \
-                           ::testing::Values(::mesorock::sim::BackendKind::CPU,         \
-                                             ::mesorock::sim::BackendKind::CUDA),       \
-                           ::mesorock::test::backend_test_name)
+#define MESOROCK_ON_EVERY_BACKEND(suite)                                                        \
+  INSTANTIATE_TEST_SUITE_P(                                                                     \
+      Backends, suite,                                                                          \
+      ::testing::Values(::mesorock::sim::BackendKind::CPU, ::mesorock::sim::BackendKind::CUDA), \
+      ::mesorock::test::backend_test_name)
 
 }  // namespace mesorock::test

@@ -21,8 +21,8 @@ struct FluidSetup {
 };
 
 FluidSetup random_fluid(const std::array<double, 3>& L, double rho, bool periodic, bool thermostat,
-                   ms::DensityKernelKind kernel = ms::DensityKernelKind::Warren,
-                   std::uint64_t seed = 5) {
+                        ms::DensityKernelKind kernel = ms::DensityKernelKind::Warren,
+                        std::uint64_t seed = 5) {
   FluidSetup s;
   s.model.conservative = ms::ConservativeKind::MDPD;
   s.model.density_kernel = kernel;
@@ -84,8 +84,9 @@ class CellList : public OnEveryBackend {};
 // the brute-force one, so no pair is missed or counted twice.
 TEST_P(CellList, DensityMatchesBruteForceForEveryBoxShape) {
   for (bool periodic : {true, false}) {
-    for (const auto& L : {std::array<double, 3>{2.0, 2.0, 2.0}, std::array<double, 3>{2.5, 3.2, 4.7},
-                          std::array<double, 3>{6.0, 2.0, 3.0}, std::array<double, 3>{1.5, 5.0, 2.0}}) {
+    for (const auto& L :
+         {std::array<double, 3>{2.0, 2.0, 2.0}, std::array<double, 3>{2.5, 3.2, 4.7},
+          std::array<double, 3>{6.0, 2.0, 3.0}, std::array<double, 3>{1.5, 5.0, 2.0}}) {
       if (periodic && L[0] < 2) continue;  // periodic edges must be >= 2 rc
       FluidSetup s = random_fluid(L, 6.0, periodic, false);
       auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
@@ -165,8 +166,8 @@ TEST_P(Integration, FrozenParticlesStayAndBodyForceAccelerates) {
   auto sim = ms::make_simulation(m, box, p, 0.01, options());
   sim->run(100);
   const auto q = sim->particles();
-  EXPECT_NEAR(q.vz[0], 0.5 * 1.0, 1e-12);             // v = g t
-  EXPECT_NEAR(q.z[0], 2 + 0.5 * 0.5 * 1.0, 1e-12);    // z = z0 + g t^2 / 2
+  EXPECT_NEAR(q.vz[0], 0.5 * 1.0, 1e-12);           // v = g t
+  EXPECT_NEAR(q.z[0], 2 + 0.5 * 0.5 * 1.0, 1e-12);  // z = z0 + g t^2 / 2
   EXPECT_EQ(q.x[1], 7.0);
   EXPECT_EQ(q.z[1], 7.0);
 }

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Builds the CUDA targets here (nvcc, -arch=sm_90) and gathers what the GPU machine needs into
+# .carry/gpu: rockflow, the test programs, and the shared libraries that machine lacks.
+# The GPU machine (Ubuntu 24.04, CUDA 13) has no OpenVDB, toml++, Random123 or package access,
+# so building here and carrying the binaries is the simplest path (DESIGN.md, GPU machine facts).
+# Then run on the device:  bash scripts/gpu/device_run.sh [quick|full]
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cmake -S . -B build-gpu -G Ninja -DCMAKE_BUILD_TYPE=Release -DMESOROCK_BUILD_ROCKPREP=OFF \
+  -DMESOROCK_ENABLE_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
+cmake --build build-gpu --parallel "$(nproc)" --target rockflow unit_sim unit_gpu
+rm -rf .carry/gpu && mkdir -p .carry/gpu/bin .carry/gpu/lib
+cp build-gpu/bin/rockflow build-gpu/bin/unit_sim build-gpu/bin/unit_gpu .carry/gpu/bin/
+# Only the libraries the GPU machine lacks (toml++). HDF5 is not carried: the machine's own
+# libhdf5_serial.so.103 (1.10) has the same soname and brings its own dependency chain.
+for lib in $(ldd build-gpu/bin/rockflow | awk '/tomlplusplus/ {print $3}'); do
+  cp -L "$lib" .carry/gpu/lib/
+done
+git rev-parse --short=12 HEAD > .carry/gpu/COMMIT
+du -sh .carry/gpu

@@ -1,0 +1,103 @@
+// The CUDA backend against the CPU backend on the same configuration (label "gpu"; skipped
+// without a CUDA build or device). Same precision on both sides.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/init.h"
+#include "sim/simulation.h"
+
+namespace ms = mesorock::sim;
+
+namespace {
+
+struct Case {
+  ms::Model model;
+  ms::BoxSpec box;
+  ms::ParticleSet particles;
+};
+
+// A fluid with a frozen wall slab, body force and thermostat: every pass variant's pieces.
+Case mixed_case(ms::Precision precision, ms::ConservativeKind kind, ms::DensityKernelKind kernel) {
+  Case c;
+  c.model.conservative = kind;
+  c.model.density_kernel = kernel;
+  c.model.precision = precision;
+  c.model.seed = 77;
+  const int fluid = c.model.add_type({"fluid", false, {0.02, 0, 0}});
+  const int wall = c.model.add_type({"wall", true, {0, 0, 0}});
+  const double B = kind == ms::ConservativeKind::MDPD ? 25 : 0;
+  const double A = kind == ms::ConservativeKind::MDPD ? -40 : 25;
+  c.model.set_pair(fluid, fluid, {A, B, 4.5});
+  c.model.set_pair(fluid, wall, {A * 0.8, B, 4.5});
+  c.model.set_pair(wall, wall, {A, B, 4.5});
+  c.box.hi = {12, 9, 10};
+  c.box.periodic = {true, true, false};
+  std::int64_t next = 0;
+  ms::fill_random(c.particles, fluid, {0, 0, 1}, {12, 9, 10}, 6000, 3, next);
+  ms::fill_lattice(c.particles, wall, {0, 0, 0}, {12, 9, 1}, 8, next);
+  ms::assign_maxwell_velocities(c.particles, c.model, 1.0, 3);
+  return c;
+}
+
+class GpuVsCpu : public ::testing::TestWithParam<ms::Precision> {
+ protected:
+  void SetUp() override {
+    const std::string why = ms::cuda_unavailable_reason();
+    if (!why.empty()) GTEST_SKIP() << why;
+  }
+};
+
+double rms(const std::array<std::vector<double>, 3>& f) {
+  double s = 0;
+  for (int a = 0; a < 3; ++a)
+    for (double v : f[a]) s += v * v;
+  return std::sqrt(s / (3.0 * f[0].size()));
+}
+
+TEST_P(GpuVsCpu, ForcesAgreeOnTheSameConfiguration) {
+  for (auto kind : {ms::ConservativeKind::DPD, ms::ConservativeKind::MDPD}) {
+    for (auto kernel : {ms::DensityKernelKind::Warren, ms::DensityKernelKind::Lucy}) {
+      Case c = mixed_case(GetParam(), kind, kernel);
+      ms::SimulationOptions gpu;
+      gpu.backend = ms::BackendKind::CUDA;
+      auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01);
+      auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, gpu);
+      const auto fa = a->forces(), fb = b->forces();
+      const double scale = rms(fa);
+      double worst = 0;
+      for (int d = 0; d < 3; ++d)
+        for (size_t i = 0; i < fa[d].size(); ++i)
+          worst = std::max(worst, std::abs(fa[d][i] - fb[d][i]) / (std::abs(fa[d][i]) + scale));
+      EXPECT_LT(worst, 1e-5) << ms::to_string(kind) << "/" << ms::to_string(kernel);
+      const auto ra = a->densities(), rb = b->densities();
+      for (size_t i = 0; i < ra.size(); ++i) ASSERT_NEAR(ra[i], rb[i], 1e-5 * (1 + ra[i]));
+    }
+  }
+}
+
+TEST_P(GpuVsCpu, TrajectoriesAgreeOverTwentySteps) {
+  Case c = mixed_case(GetParam(), ms::ConservativeKind::MDPD, ms::DensityKernelKind::Warren);
+  ms::SimulationOptions gpu;
+  gpu.backend = ms::BackendKind::CUDA;
+  auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01);
+  auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, gpu);
+  a->run(20);
+  b->run(20);
+  const auto pa = a->particles(), pb = b->particles();
+  double worst = 0;
+  for (size_t i = 0; i < pa.size(); ++i) {
+    ASSERT_EQ(pa.id[i], pb.id[i]);
+    worst = std::max({worst, std::abs(pa.x[i] - pb.x[i]), std::abs(pa.y[i] - pb.y[i]),
+                      std::abs(pa.z[i] - pb.z[i])});
+  }
+  EXPECT_LT(worst, 1e-4);
+  const auto sa = a->stress(), sb = b->stress();
+  EXPECT_NEAR(sa.pressure(), sb.pressure(), 1e-3 * std::abs(sa.pressure()));
+}
+
+INSTANTIATE_TEST_SUITE_P(Precisions, GpuVsCpu,
+                         ::testing::Values(ms::Precision::Single, ms::Precision::Double),
+                         [](const auto& info) { return std::string(ms::to_string(info.param)); });
+
+}  // namespace
