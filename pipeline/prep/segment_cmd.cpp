@@ -1,0 +1,268 @@
+// rockprep segment: grey or labelled stack -> phase labels, OpenVDB phase grids, statistics.
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+#include "mesorock/errors.h"
+#include "mesorock/version.h"
+#include "pipeline/prep/common.h"
+#include "voxel/load.h"
+#include "voxel/phase_grids.h"
+#include "voxel/raw_io.h"
+#include "voxel/segment.h"
+#include "voxel/staged_output.h"
+
+namespace fs = std::filesystem;
+
+namespace mesorock::pipeline::prep {
+namespace {
+
+struct SegmentArgs {
+  InputArgs input;
+  FilterArgs filters;
+  std::string thresholds;
+  int otsu = 0;
+  int bins = 0;
+  std::string labels;
+  std::string phases;
+  std::string exclude_value;
+  bool organic_pores = false;
+  std::string truth;
+  std::string out;
+  bool quiet = false;
+};
+
+// Re-throws a library ConfigError with the input's name in front, so the one-line message says
+// which file the problem is in.
+template <class Fn>
+decltype(auto) about_input(const std::string& input, Fn&& fn) {
+  try {
+    return fn();
+  } catch (const ConfigError& e) {
+    throw ConfigError(input + ": " + e.what());
+  }
+}
+
+std::vector<voxel::Phase> class_phases(const std::string& names, int classes) {
+  if (names.empty()) return voxel::default_class_phases(classes);
+  std::vector<voxel::Phase> phases;
+  for (const std::string& n : voxel::split(names, ',')) phases.push_back(voxel::parse_phase(n));
+  if (static_cast<int>(phases.size()) != classes) {
+    throw ConfigError("--phases names " + std::to_string(phases.size()) + " phases for " +
+                      std::to_string(classes) + " classes");
+  }
+  return phases;
+}
+
+int run_segment(const SegmentArgs& a) {
+  const int modes = (!a.thresholds.empty()) + (a.otsu > 0) + (!a.labels.empty());
+  if (modes != 1) {
+    throw ConfigError("segment: give exactly one of --thresholds, --otsu or --labels");
+  }
+  if (!a.labels.empty() && (!a.filters.median.empty() || a.filters.gaussian > 0)) {
+    throw ConfigError("segment: filters make no sense on a labelled volume (--labels)");
+  }
+  if (!a.labels.empty() && !a.phases.empty()) {
+    throw ConfigError("segment: --phases is for --thresholds/--otsu; --labels names its phases");
+  }
+  const fs::path out(a.out);
+  if (!out.parent_path().empty() && !fs::is_directory(out.parent_path())) {
+    throw IoError(a.out + ": parent folder does not exist");
+  }
+  if (fs::exists(out) && !fs::is_directory(out))
+    throw IoError(a.out + ": exists and is not a folder");
+  if (!a.truth.empty() && !fs::exists(a.truth)) throw IoError(a.truth + ": no such file");
+  // Parse everything the user typed before the (possibly long) load.
+  const voxel::LabelMap label_map =
+      a.labels.empty() ? voxel::LabelMap{} : voxel::LabelMap::parse(a.labels);
+  std::vector<double> thresholds =
+      a.thresholds.empty() ? std::vector<double>{} : parse_numbers(a.thresholds, "--thresholds");
+  const int classes = a.otsu > 0 ? a.otsu : static_cast<int>(thresholds.size()) + 1;
+  std::vector<voxel::Phase> phases;
+  if (a.labels.empty()) phases = class_phases(a.phases, classes);
+  std::optional<double> exclude_value;
+  if (!a.exclude_value.empty()) {
+    const std::vector<double> v = parse_numbers(a.exclude_value, "--exclude-value");
+    if (v.size() != 1) throw ConfigError("--exclude-value takes one number");
+    exclude_value = v[0];
+  }
+
+  Progress progress(a.quiet);
+  voxel::ReadReport report;
+  voxel::Volume volume = load_input(a.input, progress, &report);
+  nlohmann::json record = provenance("segment");
+  record["input"] = input_record(a.input, volume, report);
+  const voxel::Shape shape = volume.shape();
+  const voxel::Spacing spacing = volume.spacing();
+  const std::int64_t n = volume.voxels();
+
+  std::optional<voxel::FieldOfView> fov;
+  nlohmann::json filters =
+      about_input(a.input.path, [&] { return apply_filters(a.filters, volume, progress, &fov); });
+  if (!fov && report.provenance.is_object() && report.provenance.contains("filters") &&
+      report.provenance["filters"].contains("field_of_view")) {
+    const auto& f = report.provenance["filters"]["field_of_view"];
+    fov = voxel::FieldOfView{f.at("cx").get<double>(), f.at("cy").get<double>(),
+                             f.at("radius").get<double>()};
+    filters["field_of_view"] = f;
+    filters["field_of_view_from"] = "input sidecar";
+    progress.note("field of view from the input's sidecar: voxels outside it are excluded");
+  }
+  voxel::Exclusion exclusion;
+  exclusion.field_of_view = fov;
+  exclusion.value = exclude_value;
+  nlohmann::json params = filters;
+  if (exclude_value) params["exclude_value"] = *exclude_value;
+
+  voxel::Volume labels;
+  if (a.otsu > 0) {
+    const voxel::Histogram histogram = progress.stage("histogram", n, [&] {
+      return about_input(a.input.path,
+                         [&] { return voxel::histogram_of(volume, exclusion, a.bins); });
+    });
+    thresholds =
+        about_input(a.input.path, [&] { return voxel::multi_otsu_thresholds(histogram, a.otsu); });
+    std::ostringstream s;
+    s << "multi-Otsu, " << a.otsu << " classes over " << histogram.counts.size()
+      << " bins: thresholds";
+    for (double t : thresholds) s << " " << t;
+    progress.note(s.str());
+    params["method"] = "multi-otsu";
+    params["classes"] = a.otsu;
+    params["histogram_bins"] = histogram.counts.size();
+  } else if (!a.thresholds.empty()) {
+    params["method"] = "thresholds";
+  }
+  if (a.labels.empty()) {
+    params["thresholds"] = thresholds;
+    nlohmann::json names = nlohmann::json::array();
+    for (voxel::Phase p : phases) names.push_back(voxel::phase_name(p));
+    params["class_phases"] = names;
+    params["class_rule"] = "class c holds values v with thresholds[c-1] <= v < thresholds[c]";
+    voxel::ThresholdSegmentation seg{thresholds, phases, exclusion};
+    labels = progress.stage("label by thresholds", n, [&] {
+      return about_input(a.input.path,
+                         [&] { return voxel::segment_by_thresholds(std::move(volume), seg); });
+    });
+  } else {
+    params["method"] = "label-map";
+    params["label_map"] = label_map.str();
+    labels = progress.stage("label by map " + label_map.str(), n, [&] {
+      return about_input(a.input.path, [&] {
+        return voxel::segment_by_label_map(std::move(volume), label_map, exclusion);
+      });
+    });
+  }
+  labels.set_spacing(spacing);
+  if (a.organic_pores) {
+    const std::int64_t moved = progress.stage("organic-hosted pores", n,
+                                              [&] { return voxel::split_organic_pores(labels); });
+    progress.note("organic_pore: " + std::to_string(moved) + " pore voxels are organic-hosted");
+    params["organic_pores"] = true;
+  }
+
+  const voxel::PhaseCounts counts = voxel::count_phases(labels);
+  const std::string warning = voxel::porosity_warning(counts);
+  if (!warning.empty()) progress.warn(a.input.path + ": " + warning);
+  nlohmann::json phase_table = nlohmann::json::object();
+  for (int p = 1; p < voxel::kPhaseCount; ++p) {
+    const auto phase = static_cast<voxel::Phase>(p);
+    if (counts.voxels[static_cast<std::size_t>(p)] == 0) continue;
+    phase_table[voxel::phase_name(phase)] = {{"code", p},
+                                             {"voxels", counts.voxels[static_cast<std::size_t>(p)]},
+                                             {"fraction", counts.fraction(phase)}};
+  }
+  std::ostringstream summary;
+  summary.precision(5);
+  summary << "porosity " << counts.porosity() << " (" << counts.counted() << " voxels";
+  if (counts.voxels[0]) summary << ", " << counts.voxels[0] << " outside";
+  summary << ");";
+  for (auto it = phase_table.begin(); it != phase_table.end(); ++it) {
+    summary << " " << it.key() << " " << it.value()["fraction"].get<double>();
+  }
+  progress.note(summary.str());
+
+  if (!a.truth.empty()) {
+    voxel::ReadReport truth_report;
+    const voxel::Volume truth = voxel::load_volume(a.truth, {}, &truth_report);
+    const double agreement = about_input(a.truth, [&] {
+      return voxel::label_agreement(labels, truth, /*merge_pores=*/!a.organic_pores);
+    });
+    std::ostringstream s;
+    s.precision(5);
+    s << "agreement with " << a.truth << ": " << agreement * 100 << "% of voxels";
+    progress.note(s.str());
+    record["truth"] = {
+        {"path", a.truth}, {"agreement", agreement}, {"pores_merged", !a.organic_pores}};
+  }
+
+  const openvdb::GridPtrVec grids = progress.stage(
+      "build OpenVDB phase grids", n, [&] { return voxel::build_phase_grids(labels); });
+
+  record["parameters"] = params;
+  record["shape_zyx"] = {shape.nz, shape.ny, shape.nx};
+  record["spacing_zyx"] = {spacing.dz, spacing.dy, spacing.dx};
+  record["unit"] = spacing.unit;
+  record["phases"] = phase_table;
+  record["porosity"] = counts.porosity();
+  record["counted_voxels"] = counts.counted();
+  record["outside_voxels"] = counts.voxels[0];
+  record["outputs"] = {"phases.vdb", "labels.mhd", "labels.raw", "labels.json", "segment.json"};
+  record["warnings"] = progress.warnings();
+
+  progress.stage("write " + a.out, n, [&] {
+    voxel::StagedOutputs outputs = voxel::StagedOutputs::in_directory(out);
+    const std::map<std::string, std::string> vdb_meta = {
+        {"mesorock_version", kVersion}, {"git_commit", kGitCommit}, {"provenance", record.dump()}};
+    voxel::write_vdb(outputs.stage("phases.vdb"), grids, vdb_meta, (out / "phases.vdb").string());
+    nlohmann::json labels_record = provenance("segment");
+    labels_record["input"] = record["input"];
+    labels_record["phase_codes"] = "0=outside,1=pore,2=organic,3=inorganic,4=organic_pore";
+    voxel::write_mhd(labels, outputs, "labels.mhd", labels_record);
+    {
+      std::ofstream s(outputs.stage("segment.json"));
+      s << record.dump(2) << "\n";
+      if (!s) throw IoError((out / "segment.json").string() + ": write failed");
+    }
+    outputs.commit();
+  });
+  return 0;
+}
+
+}  // namespace
+
+Command add_segment_command(CLI::App& rockprep) {
+  auto args = std::make_shared<SegmentArgs>();
+  CLI::App* app = rockprep.add_subcommand(
+      "segment",
+      "Segment a stack into phases (pore, organic, inorganic, organic_pore): thresholds, "
+      "multi-Otsu or an explicit label map; writes DIR/phases.vdb, DIR/labels.mhd (+.raw, "
+      ".json) and DIR/segment.json");
+  args->input.add_to(app);
+  args->filters.add_to(app, /*with_fill=*/false);
+  app->add_option("--thresholds", args->thresholds,
+                  "T1,T2,...: class c holds values in [T(c), T(c+1)); darkest class first");
+  app->add_option("--otsu", args->otsu, "Multi-Otsu thresholds for K classes")
+      ->check(CLI::Range(2, 8));
+  app->add_option("--bins", args->bins,
+                  "Histogram bins for --otsu (default: one per grey level up to 1024 levels, "
+                  "else 256)");
+  app->add_option("--labels", args->labels,
+                  "Labelled input: value=phase,... e.g. '0=pore,255=inorganic' or "
+                  "'true=pore,false=solid'; every value present must be mapped");
+  app->add_option("--phases", args->phases,
+                  "Phase of each class, darkest first (default: 2 classes pore,inorganic; 3 "
+                  "classes pore,organic,inorganic)");
+  app->add_option("--exclude-value", args->exclude_value,
+                  "Voxels with this value are outside (not counted), e.g. a scanner's fill value");
+  app->add_flag("--organic-pores", args->organic_pores,
+                "Relabel pore clusters surrounded mostly by organic matter as organic_pore");
+  app->add_option("--truth", args->truth,
+                  "Known labels (e.g. from 'synth') to measure the segmentation against");
+  app->add_option("--out", args->out, "Output folder")->required();
+  app->add_flag("--quiet", args->quiet, "No progress lines");
+  return {app, [args] { return run_segment(*args); }};
+}
+
+}  // namespace mesorock::pipeline::prep

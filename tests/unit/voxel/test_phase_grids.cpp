@@ -1,0 +1,89 @@
+// OpenVDB phase grids: every voxel's phase survives, spacing is in the transform, files reopen.
+#include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+
+#include "test_util.h"
+#include "voxel/phase_grids.h"
+#include "voxel/segment.h"
+
+namespace mesorock::voxel::test {
+namespace {
+
+// Labels with uniform 8^3 blocks (tiles), mixed blocks (leaves), outside voxels, and a shape
+// that is not a multiple of 8.
+Volume sample_labels() {
+  Volume v(Shape{19, 21, 35}, DType::kUInt8, Spacing{5, 2.5, 2.5, "nm"});
+  std::uint8_t* p = v.data<std::uint8_t>();
+  for (std::int64_t z = 0; z < 19; ++z)
+    for (std::int64_t y = 0; y < 21; ++y)
+      for (std::int64_t x = 0; x < 35; ++x) {
+        std::uint8_t c = 3;
+        if (x >= 16) c = 2;
+        if ((x - 25) * (x - 25) + (y - 10) * (y - 10) + (z - 9) * (z - 9) < 20) c = 4;
+        if (x < 8 && y < 8 && z >= 8 && z < 16) c = 1;  // a full uniform pore block
+        if (x == 34 && y == 20) c = 0;                  // an outside column
+        p[(z * 21 + y) * 35 + x] = c;
+      }
+  return v;
+}
+
+TEST(PhaseGrids, EveryVoxelKeepsItsPhase) {
+  const Volume labels = sample_labels();
+  const PhaseCounts counts = count_phases(labels);
+  const openvdb::GridPtrVec grids = build_phase_grids(labels);
+  ASSERT_EQ(grids.size(), 5u);  // pore, organic, inorganic, organic_pore, labels
+  openvdb::Int32Grid::Ptr label_grid;
+  for (const auto& g : grids) {
+    if (g->getName() == "labels") label_grid = openvdb::gridPtrCast<openvdb::Int32Grid>(g);
+  }
+  ASSERT_TRUE(label_grid);
+  EXPECT_EQ(label_grid->activeVoxelCount(), openvdb::Index64(counts.counted()));
+  for (const auto& g : grids) {
+    if (g->getName() == "labels") continue;
+    auto mask = openvdb::gridPtrCast<openvdb::MaskGrid>(g);
+    ASSERT_TRUE(mask) << g->getName();
+    const Phase phase = parse_phase(g->getName());
+    EXPECT_EQ(mask->activeVoxelCount(),
+              openvdb::Index64(counts.voxels[static_cast<std::size_t>(phase)]))
+        << g->getName();
+    EXPECT_EQ(mask->metaValue<openvdb::Int32>("phase_code"), static_cast<int>(phase));
+  }
+  auto accessor = label_grid->getConstAccessor();
+  const std::uint8_t* p = labels.data<std::uint8_t>();
+  for (int z = 0; z < 19; ++z)
+    for (int y = 0; y < 21; ++y)
+      for (int x = 0; x < 35; ++x) {
+        const openvdb::Coord ijk(x, y, z);
+        const int code = p[(z * 21 + y) * 35 + x];
+        ASSERT_EQ(accessor.getValue(ijk), code) << x << "," << y << "," << z;
+        ASSERT_EQ(accessor.isValueOn(ijk), code != 0);
+      }
+  EXPECT_FALSE(accessor.isValueOn(openvdb::Coord(35, 0, 0)));  // beyond the volume
+  const openvdb::Vec3d voxel = label_grid->transform().voxelSize();
+  EXPECT_DOUBLE_EQ(voxel.x(), 2.5);
+  EXPECT_DOUBLE_EQ(voxel.y(), 2.5);
+  EXPECT_DOUBLE_EQ(voxel.z(), 5.0);
+  const openvdb::Vec3d world = label_grid->transform().indexToWorld(openvdb::Coord(2, 3, 4));
+  EXPECT_DOUBLE_EQ(world.z(), 20.0);
+}
+
+TEST(PhaseGrids, WriteAndReopenWithMetadata) {
+  TempDir tmp;
+  const Volume labels = sample_labels();
+  write_vdb(tmp / "phases.vdb", build_phase_grids(labels), {{"source", "test"}}, "phases.vdb");
+  initialize_openvdb();
+  openvdb::io::File file((tmp / "phases.vdb").string());
+  file.open();
+  EXPECT_EQ(file.getMetadata()->metaValue<std::string>("source"), "test");
+  auto pore = openvdb::gridPtrCast<openvdb::MaskGrid>(file.readGrid("pore"));
+  ASSERT_TRUE(pore);
+  EXPECT_EQ(pore->activeVoxelCount(), openvdb::Index64(count_phases(labels).voxels[1]));
+  EXPECT_EQ(pore->metaValue<std::string>("unit"), "nm");
+  auto grid = openvdb::gridPtrCast<openvdb::Int32Grid>(file.readGrid("labels"));
+  ASSERT_TRUE(grid);
+  EXPECT_EQ(grid->tree().getValue(openvdb::Coord(25, 10, 9)), 4);
+  file.close();
+}
+
+}  // namespace
+}  // namespace mesorock::voxel::test

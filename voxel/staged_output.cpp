@@ -1,0 +1,110 @@
+#include "voxel/staged_output.h"
+
+#include <system_error>
+
+#include "mesorock/atomic_file.h"
+#include "mesorock/errors.h"
+
+namespace fs = std::filesystem;
+
+namespace mesorock::voxel {
+
+StagedOutputs StagedOutputs::files() {
+  return StagedOutputs();
+}
+
+StagedOutputs StagedOutputs::in_directory(const fs::path& dir) {
+  StagedOutputs out;
+  out.dir_ = dir;
+  std::error_code ec;
+  if (fs::exists(dir, ec)) {
+    if (!fs::is_directory(dir, ec)) throw IoError(dir.string() + ": exists and is not a folder");
+  } else {
+    fs::path parent = dir.parent_path();
+    if (!parent.empty() && !fs::is_directory(parent, ec)) {
+      throw IoError(dir.string() + ": parent folder " + parent.string() + " does not exist");
+    }
+    out.staging_dir_ = temporary_path_for(dir);
+    fs::remove_all(out.staging_dir_, ec);  // a leftover from a killed run
+    if (!fs::create_directory(out.staging_dir_, ec)) {
+      throw IoError(dir.string() + ": cannot create staging folder: " + ec.message());
+    }
+  }
+  return out;
+}
+
+StagedOutputs::StagedOutputs(StagedOutputs&& other) noexcept
+    : dir_(std::move(other.dir_)),
+      staging_dir_(std::move(other.staging_dir_)),
+      entries_(std::move(other.entries_)),
+      created_dirs_(std::move(other.created_dirs_)),
+      committed_(other.committed_),
+      active_(other.active_) {
+  other.active_ = false;
+}
+
+StagedOutputs::~StagedOutputs() {
+  if (active_ && !committed_) discard();
+}
+
+fs::path StagedOutputs::final_path(const fs::path& target) const {
+  return dir_.empty() ? target : dir_ / target;
+}
+
+fs::path StagedOutputs::stage(const fs::path& target) {
+  fs::path temporary;
+  const fs::path final = final_path(target);
+  std::error_code ec;
+  if (!staging_dir_.empty()) {
+    temporary = staging_dir_ / target;
+  } else {
+    temporary = temporary_path_for(final);
+  }
+  // Remember folders created here, so that a discarded run removes them again.
+  std::vector<fs::path> missing;
+  for (fs::path p = temporary.parent_path(); !p.empty() && !fs::exists(p, ec);
+       p = p.parent_path()) {
+    missing.push_back(p);
+  }
+  if (!temporary.parent_path().empty()) fs::create_directories(temporary.parent_path(), ec);
+  if (ec) throw IoError(final.string() + ": cannot create folder: " + ec.message());
+  created_dirs_.insert(created_dirs_.end(), missing.begin(), missing.end());
+  if (staging_dir_.empty() && !final.parent_path().empty() &&
+      !fs::is_directory(final.parent_path(), ec)) {
+    throw IoError(final.string() + ": folder " + final.parent_path().string() + " does not exist");
+  }
+  entries_.push_back({temporary, final});
+  return temporary;
+}
+
+void StagedOutputs::commit() {
+  std::error_code ec;
+  if (!staging_dir_.empty()) {
+    fs::rename(staging_dir_, dir_, ec);
+    if (ec) throw IoError(dir_.string() + ": cannot rename staging folder: " + ec.message());
+  } else {
+    for (const Entry& e : entries_) {
+      fs::rename(e.temporary, e.target, ec);
+      if (ec) throw IoError(e.target.string() + ": cannot rename temporary file: " + ec.message());
+    }
+  }
+  committed_ = true;
+}
+
+void StagedOutputs::discard() noexcept {
+  std::error_code ec;
+  if (!staging_dir_.empty()) {
+    fs::remove_all(staging_dir_, ec);
+  } else {
+    for (const Entry& e : entries_) {
+      if (fs::is_directory(e.temporary, ec)) {
+        fs::remove_all(e.temporary, ec);
+      } else {
+        fs::remove(e.temporary, ec);
+      }
+    }
+    for (const fs::path& d : created_dirs_) fs::remove(d, ec);  // only removes empty folders
+  }
+}
+
+}  // namespace mesorock::voxel
