@@ -1,12 +1,15 @@
-// Benchmark of rockprep part 1 on a large synthetic stack: load (TIFF folder), filter (Gaussian,
-// optionally median), segment (histogram + multi-Otsu, labelling, OpenVDB phase grids), and the
-// writes. Prints seconds, voxels per second, current and peak resident memory after each stage.
+// Benchmark of rockprep part 1 on a large synthetic stack: load (TIFF folder),
+// filter (Gaussian, optionally median), segment (histogram + multi-Otsu,
+// labelling, OpenVDB phase grids), and the writes. Prints seconds, voxels per
+// second, current and peak resident memory after each stage.
 //
-//   bench_voxel generate DIR [--size N] [--seed S]     writes DIR/grey/slice_*.tif (N^3 uint8)
-//   bench_voxel run DIR [--median] [--no-gaussian]     reads DIR/grey, writes DIR/out/
+//   bench_voxel generate DIR [--size N] [--seed S]     writes
+//   DIR/grey/slice_*.tif (N^3 uint8) bench_voxel run DIR [--median]
+//   [--no-gaussian]     reads DIR/grey, writes DIR/out/
 //
-// Two processes on purpose: peak memory (getrusage) is per process, and generating the stack
-// needs the truth volume too, which the pipeline being measured does not.
+// Two processes on purpose: peak memory (getrusage) is per process, and
+// generating the stack needs the truth volume too, which the pipeline being
+// measured does not.
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -35,7 +38,8 @@ double rss_gib() {
   std::ifstream status("/proc/self/status");
   std::string line;
   while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / (1024.0 * 1024.0);
+    if (line.rfind("VmRSS:", 0) == 0)
+      return std::stod(line.substr(6)) / (1024.0 * 1024.0);
   }
   return 0;
 }
@@ -43,20 +47,24 @@ double rss_gib() {
 double peak_gib() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / (1024.0 * 1024.0);  // ru_maxrss is in KiB
+  return static_cast<double>(usage.ru_maxrss) /
+         (1024.0 * 1024.0); // ru_maxrss is in KiB
 }
 
 struct Stages {
   double total = 0;
   template <class Fn>
-  decltype(auto) run(const char* name, std::int64_t voxels, Fn&& fn) {
+  decltype(auto) run(const char *name, std::int64_t voxels, Fn &&fn) {
     const auto start = std::chrono::steady_clock::now();
     auto finish = [&] {
-      const double s =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double s = std::chrono::duration<double>(
+                           std::chrono::steady_clock::now() - start)
+                           .count();
       total += s;
-      std::printf("%-28s %8.2f s %9.1f Mvoxel/s   RSS %6.2f GiB   peak %6.2f GiB\n", name, s,
-                  static_cast<double>(voxels) / s / 1e6, rss_gib(), peak_gib());
+      std::printf(
+          "%-28s %8.2f s %9.1f Mvoxel/s   RSS %6.2f GiB   peak %6.2f GiB\n",
+          name, s, static_cast<double>(voxels) / s / 1e6, rss_gib(),
+          peak_gib());
       std::fflush(stdout);
     };
     if constexpr (std::is_void_v<decltype(fn())>) {
@@ -70,13 +78,14 @@ struct Stages {
   }
 };
 
-int generate(const fs::path& dir, std::int64_t size, std::uint64_t seed) {
+int generate(const fs::path &dir, std::int64_t size, std::uint64_t seed) {
   ShaleOptions o;
   o.shape = {size, size, size};
   o.noise = 20;
   o.seed = seed;
   Stages stages;
-  const ShaleSample sample = stages.run("synthesise", o.shape.voxels(), [&] { return make_shale(o); });
+  const ShaleSample sample =
+      stages.run("synthesise", o.shape.voxels(), [&] { return make_shale(o); });
   stages.run("write TIFF slices", o.shape.voxels(), [&] {
     StagedOutputs out = StagedOutputs::in_directory(dir);
     write_tiff_slices(sample.grey, out, "grey", {});
@@ -86,30 +95,36 @@ int generate(const fs::path& dir, std::int64_t size, std::uint64_t seed) {
   return 0;
 }
 
-int run(const fs::path& dir, bool median, bool gaussian) {
-  std::printf("mesorock %s (%s), %ld hardware threads\n", mesorock::kVersion, mesorock::kGitCommit,
-              sysconf(_SC_NPROCESSORS_ONLN));
+int run(const fs::path &dir, bool median, bool gaussian) {
+  std::printf("mesorock %s (%s), %ld hardware threads\n", mesorock::kVersion,
+              mesorock::kGitCommit, sysconf(_SC_NPROCESSORS_ONLN));
   Stages stages;
-  // The voxel count is known only after loading: count the slices and read one header first.
+  // The voxel count is known only after loading: count the slices and read one
+  // header first.
   const std::size_t slices = list_tiff_slices(dir / "grey").size();
   const Volume first = read_tiff_file(list_tiff_slices(dir / "grey").front());
   const std::int64_t n = static_cast<std::int64_t>(slices) * first.voxels();
-  Volume volume = stages.run("load TIFF folder", n, [&] { return read_tiff_folder(dir / "grey"); });
-  std::printf("  %s %s, %.2f GiB\n", volume.shape().str().c_str(), dtype_name(volume.dtype()),
+  Volume volume = stages.run("load TIFF folder", n,
+                             [&] { return read_tiff_folder(dir / "grey"); });
+  std::printf("  %s %s, %.2f GiB\n", volume.shape().str().c_str(),
+              dtype_name(volume.dtype()),
               double(volume.byte_size()) / (1 << 30));
   if (gaussian) {
-    stages.run("Gaussian sigma 1", n, [&] { gaussian_filter(volume, isotropic_gaussian(1.0)); });
+    stages.run("Gaussian sigma 1", n,
+               [&] { gaussian_filter(volume, isotropic_gaussian(1.0)); });
   }
   if (median) {
     MedianOptions m;
     m.radius_z = 0.75;
     m.radius_y = m.radius_x = 1.5;
     m.shape = MedianShape::kBall;
-    stages.run("median 3x3 in-plane (ball)", n, [&] { median_filter(volume, m); });
+    stages.run("median 3x3 in-plane (ball)", n,
+               [&] { median_filter(volume, m); });
   }
-  const std::vector<double> thresholds = stages.run("histogram + multi-Otsu 3", n, [&] {
-    return multi_otsu_thresholds(histogram_of(volume), 3);
-  });
+  const std::vector<double> thresholds =
+      stages.run("histogram + multi-Otsu 3", n, [&] {
+        return multi_otsu_thresholds(histogram_of(volume), 3);
+      });
   std::printf("  thresholds %.0f %.0f\n", thresholds[0], thresholds[1]);
   ThresholdSegmentation seg;
   seg.thresholds = thresholds;
@@ -118,13 +133,15 @@ int run(const fs::path& dir, bool median, bool gaussian) {
     return segment_by_thresholds(std::move(volume), seg);
   });
   const openvdb::GridPtrVec grids =
-      stages.run("build OpenVDB phase grids", n, [&] { return build_phase_grids(labels); });
+      stages.run("build OpenVDB phase grids", n,
+                 [&] { return build_phase_grids(labels); });
   const double pipeline = stages.total;
   const double pipeline_peak = peak_gib();
   std::size_t grid_bytes = 0;
-  for (const auto& g : grids) grid_bytes += g->memUsage();
-  std::printf("  grids in memory %.2f GiB, porosity %.5f\n", double(grid_bytes) / (1 << 30),
-              count_phases(labels).porosity());
+  for (const auto &g : grids)
+    grid_bytes += g->memUsage();
+  std::printf("  grids in memory %.2f GiB, porosity %.5f\n",
+              double(grid_bytes) / (1 << 30), count_phases(labels).porosity());
   stages.run("write phases.vdb", n, [&] {
     StagedOutputs out = StagedOutputs::in_directory(dir / "out");
     write_vdb(out.stage("phases.vdb"), grids, {}, "phases.vdb");
@@ -135,15 +152,16 @@ int run(const fs::path& dir, bool median, bool gaussian) {
     write_mhd(labels, out, "labels.mhd");
     out.commit();
   });
-  std::printf("load + filter + segment: %.2f s (%.1f Mvoxel/s), peak %.2f GiB\n", pipeline,
-              double(n) / pipeline / 1e6, pipeline_peak);
+  std::printf(
+      "load + filter + segment: %.2f s (%.1f Mvoxel/s), peak %.2f GiB\n",
+      pipeline, double(n) / pipeline / 1e6, pipeline_peak);
   std::printf("with writes: %.2f s, peak %.2f GiB\n", stages.total, peak_gib());
   return 0;
 }
 
-}  // namespace
+} // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char **argv) {
   try {
     if (argc < 3) {
       std::fprintf(stderr,
@@ -171,11 +189,13 @@ int main(int argc, char** argv) {
         return 2;
       }
     }
-    if (mode == "generate") return generate(dir, size, seed);
-    if (mode == "run") return run(dir, median, gaussian);
+    if (mode == "generate")
+      return generate(dir, size, seed);
+    if (mode == "run")
+      return run(dir, median, gaussian);
     std::fprintf(stderr, "bench_voxel: unknown mode %s\n", mode.c_str());
     return 2;
-  } catch (const std::exception& e) {
+  } catch (const std::exception &e) {
     std::fprintf(stderr, "bench_voxel: %s\n", e.what());
     return 1;
   }
