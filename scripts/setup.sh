@@ -6,7 +6,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libopenvdb-dev libtbb-dev libhdf5-dev hdf5-tools libeigen3-dev
+  libopenvdb-dev libboost-iostreams-dev libtbb-dev libhdf5-dev hdf5-tools libeigen3-dev
   libopenmpi-dev openmpi-bin
   libcli11-dev libtomlplusplus-dev libspdlog-dev libfmt-dev librandom123-dev
   nlohmann-json3-dev libtiff-dev zlib1g-dev libgtest-dev libgmock-dev libbenchmark-dev

@@ -37,15 +37,12 @@ Format detect_format(const fs::path& input, const LoadOptions& options) {
   const std::string name = input.string();
   std::error_code ec;
   if (!fs::exists(input, ec)) throw IoError(name + ": no such file or folder");
-  if (fs::is_directory(input, ec)) return Format::kTiffFolder;
-
-  const std::string ext = lowercase(input.extension().string());
-  if (options.shape || options.dtype) {
-    if (!(options.shape && options.dtype)) {
-      throw ConfigError(name + ": headerless raw input needs both --shape and --dtype");
-    }
-    return Format::kRaw;
+  const bool raw_options = options.shape || options.dtype;
+  if (fs::is_directory(input, ec)) {
+    if (raw_options) throw ConfigError(name + ": --shape/--dtype are for headerless raw files");
+    return Format::kTiffFolder;
   }
+  const std::string ext = lowercase(input.extension().string());
   unsigned char magic[8] = {0};
   const std::uint64_t size = file_size_or_throw(input);
   {
@@ -53,20 +50,39 @@ Format detect_format(const fs::path& input, const LoadOptions& options) {
     const std::size_t n = std::fread(magic, 1, sizeof magic, f.get());
     (void)n;
   }
+  Format format = Format::kRaw;
+  bool recognised = true;
   if (size >= 4 && ((magic[0] == 'I' && magic[1] == 'I' && (magic[2] == 42 || magic[2] == 43) &&
                      magic[3] == 0) ||
                     (magic[0] == 'M' && magic[1] == 'M' && magic[2] == 0 &&
                      (magic[3] == 42 || magic[3] == 43)))) {
-    return Format::kTiff;
+    format = Format::kTiff;
+  } else if (size >= 6 && std::memcmp(magic, "\x93NUMPY", 6) == 0) {
+    format = Format::kNpy;
+  } else if (size >= 4 && magic[0] == 'P' && magic[1] == 'K' &&
+             ((magic[2] == 3 && magic[3] == 4) || (magic[2] == 5 && magic[3] == 6))) {
+    format = Format::kNpz;
+  } else if ((size >= 8 && std::memcmp(magic, "\x89HDF\r\n\x1a\n", 8) == 0) || ext == ".h5" ||
+             ext == ".hdf5" || ext == ".hdf") {  // the extension covers files with a user block
+    format = Format::kHdf5;
+  } else if (ext == ".mhd" || ext == ".mha") {
+    format = Format::kMetaImage;
+  } else {
+    recognised = false;
   }
-  if (size >= 6 && std::memcmp(magic, "\x93NUMPY", 6) == 0) return Format::kNpy;
-  if (size >= 4 && magic[0] == 'P' && magic[1] == 'K' &&
-      ((magic[2] == 3 && magic[3] == 4) || (magic[2] == 5 && magic[3] == 6))) {
-    return Format::kNpz;
+  if (recognised) {
+    if (raw_options) {
+      throw ConfigError(name + ": is a " + format_name(format) +
+                        " file; --shape/--dtype are for headerless raw files");
+    }
+    return format;
   }
-  if (size >= 8 && std::memcmp(magic, "\x89HDF\r\n\x1a\n", 8) == 0) return Format::kHdf5;
-  if (ext == ".h5" || ext == ".hdf5" || ext == ".hdf") return Format::kHdf5;  // user block
-  if (ext == ".mhd" || ext == ".mha") return Format::kMetaImage;
+  if (raw_options) {
+    if (!(options.shape && options.dtype)) {
+      throw ConfigError(name + ": headerless raw input needs both --shape and --dtype");
+    }
+    return Format::kRaw;
+  }
 
   std::ostringstream s;
   s << name << ": ";

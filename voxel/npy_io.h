@@ -1,6 +1,10 @@
 #pragma once
 // NumPy .npy arrays and .npz archives of them.
 //
+// Why hand-written: the .npy format is a magic string, a Python dict literal and the raw data;
+// Debian packages no C++ reader for it (cnpy is not packaged), and the format is fixed by NumPy's
+// NEP 1. The .npz container is read by voxel/zip_reader.h.
+//
 // dtypes: bool, int8, uint8, uint16 and float32 (either byte order); C or Fortran order (Fortran
 // arrays are transposed to C order while streaming, one plane at a time, never as a second full
 // copy). A 3-D array (a, b, c) is read as (nz, ny, nx) = (a, b, c); a 2-D array as one slice.

@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <array>
+#include <cstring>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -55,26 +56,33 @@ openvdb::GridPtrVec build_phase_grids(const Volume& labels, const PhaseGridOptio
 
   tbb::parallel_for(std::int64_t(0), bz, [&](std::int64_t kb) {
     SlabNodes& slab = slabs[static_cast<std::size_t>(kb)];
-    std::uint8_t block[kBlock * kBlock * kBlock];  // in leaf offset order: x slowest, z fastest
+    // Per block: the phase codes in leaf offset order (x slowest, z fastest, as OpenVDB stores
+    // them), and per phase the 8 64-bit words of its bit mask (word x, bit y * 8 + z), so leaves
+    // are filled word by word rather than voxel by voxel.
+    std::int32_t block[kBlock * kBlock * kBlock];
+    std::uint64_t words[kPhaseCount][kBlock];
     for (std::int64_t jb = 0; jb < by; ++jb) {
       for (std::int64_t ib = 0; ib < bx; ++ib) {
         const std::int64_t x0 = ib * kBlock, y0 = jb * kBlock, z0 = kb * kBlock;
         const std::int64_t ex = std::min<std::int64_t>(kBlock, s.nx - x0),
                            ey = std::min<std::int64_t>(kBlock, s.ny - y0),
                            ez = std::min<std::int64_t>(kBlock, s.nz - z0);
-        std::fill(std::begin(block), std::end(block), std::uint8_t(0));
+        std::fill(std::begin(block), std::end(block), 0);
+        std::memset(words, 0, sizeof words);
         unsigned present = 0;
         for (std::int64_t dz = 0; dz < ez; ++dz) {
           for (std::int64_t dy = 0; dy < ey; ++dy) {
             const std::uint8_t* row = codes + ((z0 + dz) * s.ny + (y0 + dy)) * s.nx + x0;
+            const unsigned bit = static_cast<unsigned>((dy << 3) | dz);
             for (std::int64_t dx = 0; dx < ex; ++dx) {
-              const std::uint8_t c = row[dx];
+              const unsigned c = row[dx];
               if (c >= kPhaseCount) {
                 errors[static_cast<std::size_t>(kb)] =
                     "label volume holds value " + std::to_string(c) + ", not a phase code";
                 return;
               }
-              block[(dx << 6) | (dy << 3) | dz] = c;
+              block[(dx << 6) | bit] = static_cast<std::int32_t>(c);
+              words[c][dx] |= std::uint64_t(1) << bit;
               present |= 1u << c;
             }
           }
@@ -94,8 +102,11 @@ openvdb::GridPtrVec build_phase_grids(const Volume& labels, const PhaseGridOptio
         if ((present & ~1u) == 0) continue;  // only outside voxels: nothing to store
         if (options.label_grid) {
           auto leaf = std::make_unique<LabelLeaf>(origin, 0, false);
-          for (openvdb::Index n = 0; n < LabelLeaf::SIZE; ++n) {
-            if (block[n]) leaf->setValueOn(n, block[n]);
+          std::copy(std::begin(block), std::end(block), leaf->buffer().data());
+          auto& mask = leaf->getValueMask();
+          for (int w = 0; w < kBlock; ++w) {
+            mask.template getWord<openvdb::Index64>(static_cast<openvdb::Index>(w)) =
+                words[1][w] | words[2][w] | words[3][w] | words[4][w];
           }
           slab.label_leaves.push_back(std::move(leaf));
         }
@@ -104,8 +115,10 @@ openvdb::GridPtrVec build_phase_grids(const Volume& labels, const PhaseGridOptio
           slab.present[static_cast<std::size_t>(phase)] = true;
           if (!options.phase_masks) continue;
           auto leaf = std::make_unique<MaskLeaf>(origin, false, false);
-          for (openvdb::Index n = 0; n < MaskLeaf::SIZE; ++n) {
-            if (block[n] == phase) leaf->setValueOn(n);
+          auto& mask = leaf->getValueMask();
+          for (int w = 0; w < kBlock; ++w) {
+            mask.template getWord<openvdb::Index64>(static_cast<openvdb::Index>(w)) =
+                words[phase][w];
           }
           slab.mask_leaves[static_cast<std::size_t>(phase)].push_back(std::move(leaf));
         }

@@ -1,6 +1,10 @@
 #pragma once
 // Headerless raw volumes, and MetaImage (.mhd header + .raw data, or .mha with the data inline).
 //
+// Why hand-written: MetaImage is a few "key = value" lines and a raw (or zlib) block. The library
+// that reads it, ITK/MetaIO (Debian libinsighttoolkit4-dev), is a very large dependency outside
+// the project's list for a reader this small.
+//
 // MetaImage has no length unit. Next to every .mhd it writes, mesorock writes a JSON sidecar
 // (vol.mhd -> vol.json) holding the unit, the dtype (bool is stored as MET_UCHAR) and the
 // provenance; read_mhd() uses it when present.

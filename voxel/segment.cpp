@@ -181,6 +181,7 @@ Histogram histogram_of(const Volume& volume, const Exclusion& exclusion, int bin
       if (first > last) throw ConfigError("no voxels left to segment (all excluded)");
       const std::size_t levels = last - first + 1;
       const std::size_t n = bins ? static_cast<std::size_t>(bins) : (levels <= 1024 ? levels : 256);
+      h.integer_values = true;
       h.lo = static_cast<double>(static_cast<std::int64_t>(first) - table_offset<T>());
       h.width = static_cast<double>(levels) / static_cast<double>(n);
       if (n == levels) h.width = 1.0;
@@ -296,7 +297,8 @@ std::vector<std::size_t> multi_otsu_bins(const std::vector<std::uint64_t>& count
 std::vector<double> multi_otsu_thresholds(const Histogram& histogram, int classes) {
   std::vector<double> thresholds;
   for (std::size_t b : multi_otsu_bins(histogram.counts, classes)) {
-    thresholds.push_back(histogram.lower_edge(b));
+    const double edge = histogram.lower_edge(b);
+    thresholds.push_back(histogram.integer_values ? std::ceil(edge) : edge);
   }
   return thresholds;
 }

@@ -52,8 +52,9 @@ PhaseCounts count_phases(const Volume& labels);
 // Histograms and multi-Otsu
 
 struct Histogram {
-  double lo = 0;     // lower edge of bin 0
-  double width = 1;  // bin width in grey levels
+  double lo = 0;                // lower edge of bin 0
+  double width = 1;             // bin width in grey levels
+  bool integer_values = false;  // the volume holds integers: thresholds are rounded up
   std::vector<std::uint64_t> counts;
   double lower_edge(std::size_t bin) const { return lo + width * static_cast<double>(bin); }
 };
@@ -68,8 +69,9 @@ Histogram histogram_of(const Volume& volume, const Exclusion& exclusion = {}, in
 // histogram has fewer occupied bins than classes.
 std::vector<std::size_t> multi_otsu_bins(const std::vector<std::uint64_t>& counts, int classes);
 
-// Grey-level thresholds: the lower edges of the boundary bins. A voxel with value v belongs to
-// class c = number of thresholds t with v >= t.
+// Grey-level thresholds: the lower edges of the boundary bins (rounded up to the next integer
+// for integer volumes, which classifies the same voxels). A voxel with value v belongs to class
+// c = number of thresholds t with v >= t.
 std::vector<double> multi_otsu_thresholds(const Histogram& histogram, int classes);
 
 // ---------------------------------------------------------------------------------------------

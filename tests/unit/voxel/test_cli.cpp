@@ -2,10 +2,12 @@
 // output at all; good input gives the documented files.
 #include <gtest/gtest.h>
 
+#include <openvdb/io/File.h>
 #include <nlohmann/json.hpp>
 
 #include "test_util.h"
 #include "voxel/load.h"
+#include "voxel/phase_grids.h"
 #include "voxel/raw_io.h"
 #include "voxel/segment.h"
 #include "voxel/staged_output.h"
@@ -189,6 +191,25 @@ TEST(Cli, LabelledRockAndInvertedMapWarning) {
   EXPECT_NE(r.err.find("implausible"), std::string::npos);
   const auto j = nlohmann::json::parse(read_bytes(tmp / "inverted" / "segment.json"));
   EXPECT_EQ(j["warnings"].size(), 1u);
+  // The phase grids: masks and the label grid by default, masks only on request.
+  auto grid_names = [](const fs::path& vdb) {
+    initialize_openvdb();
+    openvdb::io::File file(vdb.string());
+    file.open();
+    std::vector<std::string> names;
+    for (auto it = file.beginName(); it != file.endName(); ++it) names.push_back(*it);
+    file.close();
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  EXPECT_EQ(grid_names(tmp / "ok" / "phases.vdb"),
+            (std::vector<std::string>{"inorganic", "labels", "pore"}));
+  r = run_command(cd + " segment rock.raw --shape 4,5,6 --dtype uint8 --labels 0=pore,255=solid "
+                       "--no-label-grid --out masks",
+                  tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(grid_names(tmp / "masks" / "phases.vdb"),
+            (std::vector<std::string>{"inorganic", "pore"}));
   // Load converts to the canonical volume with the command-line spacing recorded.
   r = run_command(cd + " load rock.raw --shape 4,5,6 --dtype uint8 --spacing 5,2.5,2.5 --unit "
                        "nm --out canon.mhd",
@@ -197,6 +218,37 @@ TEST(Cli, LabelledRockAndInvertedMapWarning) {
   const Volume back = load_volume(tmp / "canon.mhd");
   EXPECT_TRUE(same_voxels(v, back));
   EXPECT_EQ(back.spacing().str(), "5 x 2.5 x 2.5 nm");
+}
+
+TEST(Cli, FieldOfViewFoundByFilterIsExcludedBySegment) {
+  // A scanner-like slice stack: a disk of rock (two grey levels, half each) and the value 1
+  // outside it.
+  TempDir tmp;
+  const double cx = 30.5, cy = 27.0, r = 22.0;
+  Volume v(Shape{3, 56, 64}, DType::kUInt16);
+  std::int64_t outside = 0;
+  for (std::int64_t z = 0; z < 3; ++z)
+    for (std::int64_t y = 0; y < 56; ++y)
+      for (std::int64_t x = 0; x < 64; ++x) {
+        const bool in = (x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r;
+        outside += !in;
+        v.data<std::uint16_t>()[(z * 56 + y) * 64 + x] = !in ? 1 : (x < cx ? 500 : 1000);
+      }
+  write_raw(v, tmp / "disk.raw", "disk.raw");
+  const std::string cd = "cd " + tmp.path().string() + " && " + rockprep();
+  CommandResult res = run_command(
+      cd + " filter disk.raw --shape 3,56,64 --dtype uint16 --fov value=1 --out f.mhd", tmp.path());
+  ASSERT_EQ(res.exit_code, 0) << res.err;
+  const auto f = nlohmann::json::parse(read_bytes(tmp / "f.json"));
+  EXPECT_NEAR(f["filters"]["field_of_view"]["cx"].get<double>(), cx, 0.1);
+  EXPECT_NEAR(f["filters"]["field_of_view"]["radius"].get<double>(), r, 0.2);
+  res = run_command(cd + " segment f.mhd --thresholds 750 --out s", tmp.path());
+  ASSERT_EQ(res.exit_code, 0) << res.err;
+  const auto seg = nlohmann::json::parse(read_bytes(tmp / "s" / "segment.json"));
+  // The fitted circle differs from the drawn one by a few boundary voxels at most.
+  EXPECT_NEAR(seg["outside_voxels"].get<double>(), double(outside), 0.01 * double(outside));
+  EXPECT_NEAR(seg["porosity"].get<double>(), 0.5, 0.03);
+  EXPECT_EQ(seg["parameters"]["field_of_view_from"], "input sidecar");
 }
 
 }  // namespace

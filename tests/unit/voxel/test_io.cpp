@@ -79,30 +79,34 @@ TEST(TiffFolder, SlicesAreStackedInNaturalOrder) {
 
 TEST(TiffFile, ReadsStripsTilesAndCompressionWrittenByLibtiff) {
   TempDir tmp;
+  // 22 rows in strips of 3 and 16x16 tiles: the last strip and the edge tiles are partial.
   auto pattern = [](std::uint32_t x, std::uint32_t y) { return (x * 7 + y * 13) % 65536; };
   struct Case {
     std::uint16_t compression;
     std::uint32_t tile;
+    const char* mode;  // "wb": big-endian file
   };
-  for (const Case c : {Case{COMPRESSION_NONE, 0}, Case{COMPRESSION_LZW, 0},
-                       Case{COMPRESSION_ADOBE_DEFLATE, 0}, Case{COMPRESSION_PACKBITS, 0},
-                       Case{COMPRESSION_NONE, 16}, Case{COMPRESSION_ADOBE_DEFLATE, 16}}) {
-    const fs::path file =
-        tmp / ("p" + std::to_string(c.compression) + "_" + std::to_string(c.tile) + ".tif");
-    write_plain_tiff(file, 37, 21, 16, pattern, c.compression, c.tile);
+  for (const Case c : {Case{COMPRESSION_NONE, 0, "w"}, Case{COMPRESSION_LZW, 0, "w"},
+                       Case{COMPRESSION_ADOBE_DEFLATE, 0, "w"}, Case{COMPRESSION_PACKBITS, 0, "w"},
+                       Case{COMPRESSION_NONE, 16, "w"}, Case{COMPRESSION_ADOBE_DEFLATE, 16, "w"},
+                       Case{COMPRESSION_NONE, 0, "wb"}, Case{COMPRESSION_LZW, 16, "wb"}}) {
+    const fs::path file = tmp / ("p" + std::to_string(c.compression) + "_" +
+                                 std::to_string(c.tile) + c.mode + ".tif");
+    write_plain_tiff(file, 37, 22, 16, pattern, c.compression, c.tile, c.mode);
     ReadReport report;
     const Volume v = read_tiff_file(file, {}, &report);
-    ASSERT_EQ(v.shape(), (Shape{1, 21, 37}));
+    ASSERT_EQ(v.shape(), (Shape{1, 22, 37}));
     ASSERT_EQ(v.dtype(), DType::kUInt16);
     EXPECT_EQ(report.spacing_source, "none");
     EXPECT_FALSE(v.spacing().known());
     bool all_equal = true;
-    for (std::uint32_t y = 0; y < 21; ++y) {
+    for (std::uint32_t y = 0; y < 22; ++y) {
       for (std::uint32_t x = 0; x < 37; ++x) {
         all_equal &= v.data<std::uint16_t>()[y * 37 + x] == pattern(x, y);
       }
     }
-    EXPECT_TRUE(all_equal) << "compression " << c.compression << " tile " << c.tile;
+    EXPECT_TRUE(all_equal) << "compression " << c.compression << " tile " << c.tile << " "
+                           << c.mode;
   }
 }
 
@@ -400,6 +404,10 @@ TEST(Npz, StoredDeflatedZip64AndArraySelection) {
       expect_error<ConfigError>([&] { read_npz(tmp / "x.npz", "c"); }, {"x.npz", "'c'"});
     }
   }
+  write_bytes(tmp / "end64.npz",
+              make_zip({{"a.npy", a_bytes, true, true}, {"b.npy", b_bytes, false, false}},
+                       /*zip64_end=*/true));
+  EXPECT_TRUE(same_voxels(b, read_npz(tmp / "end64.npz", "b")));
   write_bytes(tmp / "one.npz", make_zip({{"im.npy", a_bytes, true, true}}));
   EXPECT_TRUE(same_voxels(a, read_npz(tmp / "one.npz", "")));
   EXPECT_EQ(list_npz_arrays(tmp / "one.npz"), std::vector<std::string>{"im"});
@@ -468,6 +476,9 @@ TEST(Load, DetectsFormatsAndAppliesSpacing) {
   o.shape = Shape{2, 3, 4};
   o.dtype = DType::kUInt8;
   EXPECT_TRUE(same_voxels(v, load_volume(tmp / "v.raw", o)));
+  // --shape/--dtype on a file that describes itself is a mistake, not a request to reinterpret.
+  write_tiff_file(v, tmp / "v.tif");
+  expect_error<ConfigError>([&] { load_volume(tmp / "v.tif", o); }, {"v.tif", "TIFF", "--shape"});
 }
 
 TEST(StagedOutputs, DiscardedOutputsLeaveNothingBehind) {

@@ -96,8 +96,8 @@ inline std::string read_bytes(const fs::path& path) {
 template <class ValueFn>
 void write_plain_tiff(const fs::path& path, std::uint32_t width, std::uint32_t height, int bits,
                       ValueFn&& value, std::uint16_t compression = COMPRESSION_NONE,
-                      std::uint32_t tile = 0) {
-  TIFF* tif = TIFFOpen(path.c_str(), "w");
+                      std::uint32_t tile = 0, const char* mode = "w") {
+  TIFF* tif = TIFFOpen(path.c_str(), mode);
   ASSERT_NE(tif, nullptr);
   TIFFSetField(tif, TIFFTAG_IMAGEWIDTH, width);
   TIFFSetField(tif, TIFFTAG_IMAGELENGTH, height);
@@ -146,7 +146,9 @@ struct ZipEntry {
   bool deflate = false;
   bool zip64_local = false;  // NumPy-style: local sizes 0xFFFFFFFF + zip64 extra
 };
-inline std::string make_zip(const std::vector<ZipEntry>& entries) {
+// zip64_end: also write the zip64 end-of-central-directory record and locator, with the classic
+// record's fields saturated (as archives over 4 GiB or 65535 members have them).
+inline std::string make_zip(const std::vector<ZipEntry>& entries, bool zip64_end = false) {
   auto u16 = [](std::string& s, std::uint16_t v) {
     s.push_back(char(v & 0xff));
     s.push_back(char(v >> 8));
@@ -218,13 +220,30 @@ inline std::string make_zip(const std::vector<ZipEntry>& entries) {
   }
   const std::uint32_t cd_offset = static_cast<std::uint32_t>(out.size());
   out += central;
+  if (zip64_end) {
+    const std::uint64_t record = out.size();
+    u32(out, 0x06064b50);
+    u64(out, 44);
+    u16(out, 45);
+    u16(out, 45);
+    u32(out, 0);
+    u32(out, 0);
+    u64(out, entries.size());
+    u64(out, entries.size());
+    u64(out, central.size());
+    u64(out, cd_offset);
+    u32(out, 0x07064b50);
+    u32(out, 0);
+    u64(out, record);
+    u32(out, 1);
+  }
   u32(out, 0x06054b50);
   u16(out, 0);
   u16(out, 0);
-  u16(out, std::uint16_t(entries.size()));
-  u16(out, std::uint16_t(entries.size()));
-  u32(out, std::uint32_t(central.size()));
-  u32(out, cd_offset);
+  u16(out, zip64_end ? 0xFFFF : std::uint16_t(entries.size()));
+  u16(out, zip64_end ? 0xFFFF : std::uint16_t(entries.size()));
+  u32(out, zip64_end ? 0xFFFFFFFFu : std::uint32_t(central.size()));
+  u32(out, zip64_end ? 0xFFFFFFFFu : cd_offset);
   u16(out, 0);
   return out;
 }
