@@ -20,6 +20,7 @@
 #include "pipeline/scene.h"
 #include "sim/init.h"
 #include "sim/particle_io.h"
+#include "support/test_support.h"
 
 namespace fs = std::filesystem;
 using mesorock::ConfigError;
@@ -31,33 +32,14 @@ using mesorock::pipeline::parse_scene;
 using mesorock::pipeline::Scene;
 namespace sim = mesorock::sim;
 
+using mesorock::test::read_file;
+using mesorock::test::run_command;
+using mesorock::test::shell_quote;
+using mesorock::test::TempDir;
+
 namespace {
 
 const fs::path kScenes = fs::path(MESOROCK_SOURCE_DIR) / "tests" / "data" / "scenes";
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "mesorock-scene-XXXXXX").string();
-    if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 void write_text(const fs::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary) << text;
@@ -116,7 +98,7 @@ TEST(Scene, GoodBulkSceneParsesIntoModelBoxAndStages) {
   const Scene s = load_scene(path);
   EXPECT_EQ(s.path, path);
   EXPECT_EQ(s.name, "bulk-mdpd");
-  EXPECT_EQ(s.source_text, slurp(path));
+  EXPECT_EQ(s.source_text, read_file(path));
 
   const sim::Model& m = s.model;
   EXPECT_EQ(m.seed, 42u);
@@ -334,12 +316,6 @@ std::string case_name(const testing::TestParamInfo<BadScene>& info) {
   return s;
 }
 
-std::string shell_quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
 size_t files_under(const fs::path& dir) {
   size_t n = 0;
   std::error_code ec;
@@ -370,21 +346,19 @@ TEST_P(BadSceneTest, LoadSceneGivesOneLineNamingFileAndKey) {
   // Bad scenes are ConfigErrors (a missing file would be an IoError, but these files exist).
   EXPECT_THROW(load_scene(b.path), ConfigError);
   // parse_scene on the same text reports the same.
-  EXPECT_EQ(error_of([&] { parse_scene(slurp(b.path), b.path); }), msg);
+  EXPECT_EQ(error_of([&] { parse_scene(read_file(b.path), b.path); }), msg);
 }
 
 TEST_P(BadSceneTest, RockflowRunExitsTwoWithOneLineAndWritesNothing) {
   const BadScene& b = GetParam();
   TempDir dir;
   const fs::path out = dir.path() / "out";
-  const fs::path out_log = dir.path() / "stdout.txt", err_log = dir.path() / "stderr.txt";
-  const std::string cmd = shell_quote(MESOROCK_ROCKFLOW) + " run " + shell_quote(b.path.string()) +
-                          " --out " + shell_quote(out.string()) + " >" +
-                          shell_quote(out_log.string()) + " 2>" + shell_quote(err_log.string());
-  const int status = std::system(cmd.c_str());
-  ASSERT_TRUE(WIFEXITED(status)) << cmd;
-  EXPECT_EQ(WEXITSTATUS(status), 2) << cmd << "\nstderr: " << slurp(err_log);
-  const std::string err = slurp(err_log);
+  const auto r =
+      run_command(shell_quote(MESOROCK_ROCKFLOW) + " run " + shell_quote(b.path.string()) +
+                      " --out " + shell_quote(out.string()),
+                  dir.path());
+  EXPECT_EQ(r.exit_code, 2) << "stderr: " << r.err;
+  const std::string& err = r.err;
   EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
   EXPECT_TRUE(!err.empty() && err.back() == '\n') << err;
   EXPECT_NE(err.find(b.path.filename().string()), std::string::npos) << err;
@@ -605,7 +579,7 @@ TEST(InitialParticles, FileBlockErrorsNameSceneBlockAndFile) {
 // Scenes shipped in the repository
 
 TEST(Scene, DocsExampleParses) {
-  const std::string doc = slurp(fs::path(MESOROCK_SOURCE_DIR) / "docs" / "scene.md");
+  const std::string doc = read_file(fs::path(MESOROCK_SOURCE_DIR) / "docs" / "scene.md");
   const size_t start = doc.find("```toml\n");
   ASSERT_NE(start, std::string::npos) << "docs/scene.md has no ```toml example";
   const size_t body = start + 8;

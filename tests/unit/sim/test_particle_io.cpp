@@ -18,6 +18,7 @@
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "sim/particle_io.h"
+#include "support/test_support.h"
 
 namespace fs = std::filesystem;
 using mesorock::IoError;
@@ -27,24 +28,10 @@ using mesorock::sim::read_particle_file;
 using mesorock::sim::write_particle_file;
 using mesorock::sim::write_particle_xdmf;
 
+using mesorock::test::read_file;
+using mesorock::test::TempDir;
+
 namespace {
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "mesorock-pio-XXXXXX").string();
-    if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 ParticleSet sample_set(size_t n) {
   ParticleSet p;
@@ -96,13 +83,6 @@ void replace_dataset(const fs::path& file, const char* name, hid_t type,
   H5Sclose(space);
   H5Gclose(g);
   H5Fclose(f);
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 }  // namespace
@@ -286,7 +266,7 @@ TEST(ParticleIo, FailedWriteLeavesTargetUntouchedAndNoTemporary) {
   TempDir dir;
   const fs::path file = dir.path() / "p.h5";
   write_particle_file(file, sample_set(10), sample_meta());
-  const std::string before = slurp(file);
+  const std::string before = read_file(file);
 
   ParticleSet bad = sample_set(20);
   bad.type[5] = 9;  // not a type name index
@@ -296,7 +276,7 @@ TEST(ParticleIo, FailedWriteLeavesTargetUntouchedAndNoTemporary) {
   nonfinite.vz[3] = INFINITY;
   EXPECT_NE(error_of([&] { write_particle_file(file, nonfinite, sample_meta()); }),
             "<no IoError thrown>");
-  EXPECT_EQ(slurp(file), before);
+  EXPECT_EQ(read_file(file), before);
   EXPECT_EQ(read_particle_file(file).size(), 10u);
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
 
@@ -359,7 +339,7 @@ TEST(ParticleIo, XdmfSidecarNamesDatasetsThatOpenWithStatedDimensions) {
   write_particle_file(h5, sample_set(n), sample_meta());
   write_particle_xdmf(xmf, h5, n, 2.5);
 
-  const std::string xml = slurp(xmf);
+  const std::string xml = read_file(xmf);
   ASSERT_NE(xml.find("<Xdmf Version=\"3.0\""), std::string::npos) << xml;
   const auto elements = parse_xml_elements(xml);
   std::map<std::string, XmlElement> attributes;
@@ -417,7 +397,7 @@ TEST(ParticleIo, XdmfBesideTheH5UsesTheBareFileName) {
   const fs::path xmf = dir.path() / "p.xmf";
   write_particle_file(h5, sample_set(4), sample_meta());
   write_particle_xdmf(xmf, h5, 4);
-  const std::string xml = slurp(xmf);
+  const std::string xml = read_file(xmf);
   EXPECT_NE(xml.find(">p.h5:/particles/position<"), std::string::npos) << xml;
   EXPECT_EQ(xml.find("<Time"), std::string::npos);
 }

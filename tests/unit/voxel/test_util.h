@@ -16,31 +16,18 @@
 #include <string>
 #include <vector>
 
+#include "support/test_support.h"
 #include "voxel/volume.h"
 
 namespace mesorock::voxel::test {
 
 namespace fs = std::filesystem;
-
-// A fresh folder under the system temporary directory, removed with its contents at the end.
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "mesorock_voxel_XXXXXX").string();
-    char* made = mkdtemp(pattern.data());
-    if (!made) throw std::runtime_error("mkdtemp failed");
-    path_ = made;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
+using mesorock::test::CommandResult;
+using mesorock::test::run_command;
+using mesorock::test::TempDir;
+inline std::string read_bytes(const fs::path& path) {
+  return mesorock::test::read_file(path);
+}
 
 inline bool rocks_available() {
   return fs::is_directory(MESOROCK_ROCKS_DIR);
@@ -83,12 +70,6 @@ inline bool same_voxels(const Volume& a, const Volume& b) {
 inline void write_bytes(const fs::path& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-inline std::string read_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 // Writes a single-page 8- or 16-bit TIFF directly with libtiff (independent of the code under
@@ -248,24 +229,6 @@ inline std::string make_zip(const std::vector<ZipEntry>& entries, bool zip64_end
   return out;
 }
 
-// Runs a shell command; returns its exit code and captures stdout and stderr.
-struct CommandResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-inline CommandResult run_command(const std::string& command, const fs::path& scratch) {
-  const fs::path out = scratch / ".cmd_stdout", err = scratch / ".cmd_stderr";
-  const std::string full = command + " >" + out.string() + " 2>" + err.string();
-  const int status = std::system(full.c_str());
-  CommandResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_bytes(out);
-  r.err = read_bytes(err);
-  fs::remove(out);
-  fs::remove(err);
-  return r;
-}
 inline std::string rockprep() {
   return std::string("\"") + MESOROCK_ROCKPREP + "\"";
 }
