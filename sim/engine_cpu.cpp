@@ -33,6 +33,7 @@ class CellSorter {
     for (int c = 0; c < ncells; ++c) s.cell_start[c + 1] += s.cell_start[c];
     fill_.assign(s.cell_start.begin(), s.cell_start.end() - 1);
     for (int i = 0; i < n; ++i) dest_[static_cast<size_t>(i)] = fill_[cell_of_[i]]++;
+    // v~ is empty without a thermostat: permuting it is then a no-op.
     for (auto* a : {&s.x, &s.y, &s.z, &s.vx, &s.vy, &s.vz, &s.vex, &s.vey, &s.vez})
       permute(*a, scratch_real_);
     permute(s.type, scratch_int_);
@@ -63,13 +64,6 @@ class CpuEngine final : public Engine<Real> {
 
   void initialize(HostState<Real>& host) override {
     s_ = &host;
-    host.origin.resize(static_cast<size_t>(host.size()));
-    for (int i = 0; i < host.size(); ++i) host.origin[static_cast<size_t>(i)] = i;
-    for (auto* v : {&host.vex, &host.vey, &host.vez, &host.fx, &host.fy, &host.fz, &host.rho})
-      v->assign(static_cast<size_t>(host.size()), Real(0));
-    host.vex = host.vx;
-    host.vey = host.vy;
-    host.vez = host.vz;
     compute_forces();
   }
 
@@ -79,7 +73,7 @@ class CpuEngine final : public Engine<Real> {
       const StepView<Real> v = s_->view();
       const int n = v.n;
 #pragma omp parallel for schedule(static)
-      for (int i = 0; i < n; ++i) kick_drift(v, i);
+      for (int i = 0; i < n; ++i) kick_drift<Real, Terms::thermostat::enabled>(v, i);
       ++s_->step;
       compute_forces();
       const StepView<Real> w = s_->view();

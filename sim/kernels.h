@@ -26,7 +26,8 @@ struct StepView {
   int n = 0;
   Real *x = nullptr, *y = nullptr, *z = nullptr;
   Real *vx = nullptr, *vy = nullptr, *vz = nullptr;
-  Real *vex = nullptr, *vey = nullptr, *vez = nullptr;  // velocity estimate v~ for the force pass
+  // Velocity estimate v~ for the dissipative force; absent (null) without a thermostat.
+  Real *vex = nullptr, *vey = nullptr, *vez = nullptr;
   Real *fx = nullptr, *fy = nullptr, *fz = nullptr;
   Real* rho = nullptr;
   const std::int32_t* type = nullptr;
@@ -176,8 +177,9 @@ MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i) {
 // ---------------------------------------------------------------------------------------------
 // Integration.
 
-// Reflective face: mirror the position back inside and reverse the normal velocity components.
-template <class Real>
+// Reflective face: mirror the position back inside and reverse the normal velocity components
+// (v~ too when the run keeps one).
+template <class Real, bool kVelocityEstimate>
 MESO_HD MESO_INLINE void apply_boundary(const StepView<Real>& v, int i, Real* pos, Real* vel,
                                         Real* vel_est, int axis) {
   const Real lo = v.box.lo[axis];
@@ -193,11 +195,11 @@ MESO_HD MESO_INLINE void apply_boundary(const StepView<Real>& v, int i, Real* po
     if (p < lo) {
       p = lo + (lo - p);
       vel[i] = -vel[i];
-      vel_est[i] = -vel_est[i];
+      if constexpr (kVelocityEstimate) vel_est[i] = -vel_est[i];
     } else if (p >= hi) {
       p = hi - (p - hi);
       vel[i] = -vel[i];
-      vel_est[i] = -vel_est[i];
+      if constexpr (kVelocityEstimate) vel_est[i] = -vel_est[i];
     }
     if (p < lo || p >= hi) p = lo + Real(0.5) * v.box.length[axis];
   }
@@ -205,24 +207,28 @@ MESO_HD MESO_INLINE void apply_boundary(const StepView<Real>& v, int i, Real* po
 }
 
 // First half: v~ = v + lambda dt f; v += dt/2 f; x += dt v; boundaries.
-template <class Real>
+// v~ feeds only the dissipative force: without a thermostat (kVelocityEstimate false) it is
+// neither computed nor stored.
+template <class Real, bool kVelocityEstimate>
 MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
   if (v.frozen(i)) return;
   const Real dt = v.dt;
   const Real half = Real(0.5) * dt;
-  const Real ld = v.lambda * dt;
-  v.vex[i] = v.vx[i] + ld * v.fx[i];
-  v.vey[i] = v.vy[i] + ld * v.fy[i];
-  v.vez[i] = v.vz[i] + ld * v.fz[i];
+  if constexpr (kVelocityEstimate) {
+    const Real ld = v.lambda * dt;
+    v.vex[i] = v.vx[i] + ld * v.fx[i];
+    v.vey[i] = v.vy[i] + ld * v.fy[i];
+    v.vez[i] = v.vz[i] + ld * v.fz[i];
+  }
   v.vx[i] += half * v.fx[i];
   v.vy[i] += half * v.fy[i];
   v.vz[i] += half * v.fz[i];
   v.x[i] += dt * v.vx[i];
   v.y[i] += dt * v.vy[i];
   v.z[i] += dt * v.vz[i];
-  apply_boundary(v, i, v.x, v.vx, v.vex, 0);
-  apply_boundary(v, i, v.y, v.vy, v.vey, 1);
-  apply_boundary(v, i, v.z, v.vz, v.vez, 2);
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.x, v.vx, v.vex, 0);
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
 }
 
 // Second half: v += dt/2 f(t + dt).

@@ -143,6 +143,16 @@ class SimulationImpl final : public Simulation {
     }
     s.type = p.type;
     s.id = p.id;
+    // Shared by every engine: original order, zeroed forces and densities, and v~ = v only when
+    // the thermostat needs it (an unused observable or term owns no memory).
+    s.origin.resize(n);
+    for (size_t i = 0; i < n; ++i) s.origin[i] = static_cast<std::int32_t>(i);
+    for (auto* a : {&s.fx, &s.fy, &s.fz, &s.rho}) a->assign(n, Real(0));
+    if (model.thermostat) {
+      s.vex = s.vx;
+      s.vey = s.vy;
+      s.vez = s.vz;
+    }
 
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
     if (opt.backend == BackendKind::CPU) {

@@ -70,10 +70,10 @@ inline int blocks_for(int n) {
   return (n + kBlock - 1) / kBlock;
 }
 
-template <class Real>
+template <class Real, bool kVelocityEstimate>
 __global__ void kick_drift_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) kick_drift(v, i);
+  if (i < v.n) kick_drift<Real, kVelocityEstimate>(v, i);
 }
 
 template <class Real>
@@ -155,14 +155,7 @@ class CudaEngine final : public Engine<Real> {
     host_ = &host;
     const int n = host.size();
     n_ = n;
-    host.origin.resize(static_cast<size_t>(n));
-    for (int i = 0; i < n; ++i) host.origin[static_cast<size_t>(i)] = i;
-    host.vex = host.vx;
-    host.vey = host.vy;
-    host.vez = host.vz;
-    for (auto* a : {&host.fx, &host.fy, &host.fz, &host.rho})
-      a->assign(static_cast<size_t>(n), Real(0));
-    Real_arrays_upload(host);
+    upload_real_arrays(host);
     type_.upload(host.type);
     id_.upload(host.id);
     origin_.upload(host.origin);
@@ -192,7 +185,7 @@ class CudaEngine final : public Engine<Real> {
     const int g = blocks_for(n_);
     for (std::uint64_t k = 0; k < steps; ++k) {
       mark(0);
-      kick_drift_kernel<<<g, kBlock>>>(view());
+      kick_drift_kernel<Real, T::enabled><<<g, kBlock>>>(view());
       ++step_;
       compute_forces();
       mark(4);
@@ -239,7 +232,7 @@ class CudaEngine final : public Engine<Real> {
   }
 
  private:
-  void Real_arrays_upload(const HostState<Real>& h) {
+  void upload_real_arrays(const HostState<Real>& h) {
     x_.upload(h.x), y_.upload(h.y), z_.upload(h.z);
     vx_.upload(h.vx), vy_.upload(h.vy), vz_.upload(h.vz);
     vex_.upload(h.vex), vey_.upload(h.vey), vez_.upload(h.vez);
@@ -280,6 +273,7 @@ class CudaEngine final : public Engine<Real> {
     cell_start_kernel<<<blocks_for(n_ + 1), kBlock>>>(cell_sorted_.get(), n_, ncells_,
                                                       cell_start_.get());
     for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_}) {
+      if (a->size() == 0) continue;  // v~ without a thermostat
       gather_kernel<<<g, kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), n_);
       a->swap(scratch_real_);
     }
