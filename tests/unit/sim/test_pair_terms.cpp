@@ -7,6 +7,7 @@
 
 #include "sim/kernels.h"
 #include "sim/pair_terms.h"
+#include "sim/simulation.h"
 
 namespace ms = mesorock::sim;
 
@@ -63,28 +64,33 @@ TEST(PairTerms, EveryPartIsAntisymmetric) {
 
 TEST(PairTerms, ZeroAtAndBeyondTheCutoff) {
   PairFixture f;
-  for (double r : {1.0, 1.0 + 1e-12, 1.5}) {
-    f.x[1] = r;
-    const double r2 = r * r;
-    const auto v = f.view();
-    double fx = 0;
-    // The neighbour loop drops r2 >= 1; check the formulas themselves vanish at r = 1 too.
-    const double c = MDPD::magnitude(1.0, f.rho[0], f.rho[1], f.p, 0.75);
-    const double d = ms::DPDThermostat::dissipative(1.0, 0.7, f.p);
-    const double s = ms::DPDThermostat::random(1.0, 0.9, 10.0, f.p);
-    const double g = ms::ConservativeDPD::magnitude(1.0, 0.0, 0.0, f.p, 0.75);
-    EXPECT_EQ(c, 0.0);
-    EXPECT_EQ(d, 0.0);
-    EXPECT_EQ(s, 0.0);
-    EXPECT_EQ(g, 0.0);
-    (void)v, (void)r2, (void)fx;
-  }
-  // The many-body part vanishes at rd.
+  // The formulas themselves vanish at r = rc = 1 ...
+  EXPECT_EQ(MDPD::magnitude(1.0, f.rho[0], f.rho[1], f.p, 0.75), 0.0);
+  EXPECT_EQ(ms::DPDThermostat::dissipative(1.0, 0.7, f.p), 0.0);
+  EXPECT_EQ(ms::DPDThermostat::random(1.0, 0.9, 10.0, f.p), 0.0);
+  EXPECT_EQ(ms::ConservativeDPD::magnitude(1.0, 0.0, 0.0, f.p, 0.75), 0.0);
+  // ... the many-body part at rd ...
   ms::PairParams<double> only_b{0, 25, 0, 0};
   EXPECT_EQ(MDPD::magnitude(0.75, 6.0, 6.0, only_b, 0.75), 0.0);
   EXPECT_EQ(MDPD::magnitude(0.8, 6.0, 6.0, only_b, 0.75), 0.0);
   EXPECT_EQ(ms::DensityKernelWarren::weight(0.75, 0.75), 0.0);
   EXPECT_EQ(ms::DensityKernelLucy::weight(0.75, 0.75), 0.0);
+  // ... and the whole force pass gives nothing at and beyond rc (thermostat and mDPD on).
+  for (double r : {1.0, 1.0 + 1e-12, 1.5}) {
+    ms::Model m;
+    const int t = m.add_type({"fluid", false, {0, 0, 0}});
+    m.set_pair(t, t, {-40, 25, 4.5});
+    ms::BoxSpec box;
+    box.hi = {10, 10, 10};
+    ms::ParticleSet p;
+    p.add(4, 5, 5, 0.3, 0, 0, t, 0);
+    p.add(4 + r, 5, 5, -0.3, 0, 0, t, 1);
+    const auto forces = ms::make_simulation(m, box, p, 0.01)->forces();
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_EQ(forces[a][0], 0.0) << "r = " << r;
+      EXPECT_EQ(forces[a][1], 0.0) << "r = " << r;
+    }
+  }
 }
 
 TEST(PairTerms, CoincidentParticlesGiveFiniteForces) {
