@@ -14,152 +14,14 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
+#include "sim/hdf5_util.h"
 
 namespace mesorock::sim {
 
 namespace fs = std::filesystem;
+using namespace hdf5_util;
 
 namespace {
-
-// HDF5 prints its error stack to stderr by default; our callers get IoError messages instead.
-void silence_hdf5_errors() {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-}
-
-// Owns one HDF5 identifier (file, group, dataset, dataspace, datatype, attribute, property list).
-class Handle {
- public:
-  using Closer = herr_t (*)(hid_t);
-  Handle() = default;
-  Handle(hid_t id, Closer closer) : id_(id), closer_(closer) {}
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  Handle(Handle&& o) noexcept : id_(std::exchange(o.id_, -1)), closer_(o.closer_) {}
-  Handle& operator=(Handle&& o) noexcept {
-    if (this != &o) {
-      reset();
-      id_ = std::exchange(o.id_, -1);
-      closer_ = o.closer_;
-    }
-    return *this;
-  }
-  ~Handle() { reset(); }
-  hid_t get() const { return id_; }
-  bool valid() const { return id_ >= 0; }
-  // Closes now; returns false when the library reports a failure (e.g. a failed flush).
-  bool close() {
-    if (id_ < 0) return true;
-    const herr_t r = closer_(std::exchange(id_, -1));
-    return r >= 0;
-  }
-
- private:
-  void reset() {
-    if (id_ >= 0 && closer_) closer_(id_);
-    id_ = -1;
-  }
-  hid_t id_ = -1;
-  Closer closer_ = nullptr;
-};
-
-// Messages: "<file>: <where>: <problem>".
-[[noreturn]] void fail(const std::string& file, const std::string& where,
-                       const std::string& problem) {
-  throw IoError(file + ": " + (where.empty() ? "" : where + ": ") + problem);
-}
-
-void check(herr_t status, const std::string& file, const std::string& where,
-           const std::string& problem) {
-  if (status < 0) fail(file, where, problem);
-}
-
-Handle checked(hid_t id, Handle::Closer closer, const std::string& file, const std::string& where,
-               const std::string& problem) {
-  if (id < 0) fail(file, where, problem);
-  return Handle(id, closer);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Writing
-
-Handle simple_space(const std::vector<hsize_t>& dims, const std::string& file,
-                    const std::string& where) {
-  return checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose,
-                 file, where, "cannot create dataspace");
-}
-
-Handle vlen_string_type(const std::string& file) {
-  Handle t = checked(H5Tcopy(H5T_C_S1), H5Tclose, file, "", "cannot create string type");
-  check(H5Tset_size(t.get(), H5T_VARIABLE), file, "", "cannot create string type");
-  check(H5Tset_cset(t.get(), H5T_CSET_UTF8), file, "", "cannot create string type");
-  return t;
-}
-
-void write_dataset(hid_t group, const char* name, const std::string& where, hid_t file_type,
-                   hid_t mem_type, const std::vector<hsize_t>& dims, const void* data,
-                   const std::string& file) {
-  Handle space = simple_space(dims, file, where);
-  Handle ds = checked(
-      H5Dcreate2(group, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-      H5Dclose, file, where, "cannot create dataset");
-  hsize_t total = 1;
-  for (hsize_t d : dims) total *= d;
-  if (total > 0)
-    check(H5Dwrite(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), file, where,
-          "write failed");
-  if (!ds.close()) fail(file, where, "write failed");
-}
-
-void write_attribute(hid_t obj, const char* name, const std::string& where, hid_t file_type,
-                     hid_t mem_type, const std::vector<hsize_t>& dims, const void* data,
-                     const std::string& file) {
-  Handle space = dims.empty() ? checked(H5Screate(H5S_SCALAR), H5Sclose, file, where,
-                                        "cannot create dataspace")
-                              : simple_space(dims, file, where);
-  Handle attr = checked(H5Acreate2(obj, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT),
-                        H5Aclose, file, where, "cannot create attribute");
-  hsize_t total = 1;
-  for (hsize_t d : dims) total *= d;
-  if (total > 0) check(H5Awrite(attr.get(), mem_type, data), file, where, "cannot write attribute");
-}
-
-void write_string_attribute(hid_t obj, const char* name, const std::string& where,
-                            const std::string& value, const std::string& file) {
-  Handle t = vlen_string_type(file);
-  const char* ptr = value.c_str();
-  write_attribute(obj, name, where, t.get(), t.get(), {}, &ptr, file);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Reading
-
-std::string dims_text(const std::vector<hsize_t>& dims) {
-  std::string s = "[";
-  for (size_t i = 0; i < dims.size(); ++i) s += (i ? "," : "") + std::to_string(dims[i]);
-  return s + "]";
-}
-
-std::vector<hsize_t> extent(hid_t space, const std::string& file, const std::string& where) {
-  const int rank = H5Sget_simple_extent_ndims(space);
-  if (rank < 0) fail(file, where, "cannot read dataspace");
-  std::vector<hsize_t> dims(static_cast<size_t>(rank));
-  if (rank > 0 && H5Sget_simple_extent_dims(space, dims.data(), nullptr) < 0)
-    fail(file, where, "cannot read dataspace");
-  return dims;
-}
-
-const char* class_name(H5T_class_t c) {
-  switch (c) {
-    case H5T_INTEGER:
-      return "integer";
-    case H5T_FLOAT:
-      return "floating-point";
-    case H5T_STRING:
-      return "string";
-    default:
-      return "non-numeric";
-  }
-}
 
 Handle open_dataset(hid_t group, const char* name, const std::string& where,
                     const std::string& file) {
@@ -308,35 +170,6 @@ std::optional<std::string> read_scalar_string(hid_t obj, const char* name, const
   return v->front();
 }
 
-std::string number_text(double v) {
-  std::ostringstream s;
-  s << std::setprecision(17) << v;
-  return s.str();
-}
-
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 void write_particle_file(const fs::path& path, const ParticleSet& p, const ParticleFileMeta& meta) {
@@ -371,11 +204,9 @@ void write_particle_file(const fs::path& path, const ParticleSet& p, const Parti
   }
 
   write_atomically(path, [&](const fs::path& tmp) {
-    Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot create file");
-    // STRONG: closing the file closes every object in it, so H5Fclose really flushes and closes.
-    check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot create file");
-    Handle f = checked(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose,
-                       file, "", "cannot create file");
+    // STRONG close degree: closing the file closes every object in it, so H5Fclose really
+    // flushes and closes.
+    Handle f = create_file(tmp, file);
     {
       Handle g = checked(H5Gcreate2(f.get(), "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                          H5Gclose, file, "/particles", "cannot create group");
@@ -519,11 +350,7 @@ ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out)
 void write_particle_xdmf(const fs::path& xmf, const fs::path& h5, std::size_t n,
                          std::optional<double> time) {
   // The data path is relative to the .xmf's folder, so the pair can be moved together.
-  const fs::path xmf_dir = fs::absolute(xmf).parent_path().lexically_normal();
-  const fs::path h5_abs = fs::absolute(h5).lexically_normal();
-  fs::path rel = h5_abs.lexically_relative(xmf_dir);
-  if (rel.empty()) rel = h5_abs;
-  const std::string data = xml_escape(rel.generic_string());
+  const std::string data = xml_escape(xdmf_data_path(xmf, h5));
   const std::string N = std::to_string(n);
 
   std::ostringstream x;
