@@ -3,6 +3,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -118,6 +119,8 @@ std::array<double, 3> vec3_at(const Context& c, const toml::node& n, const std::
   return v;
 }
 
+int axis_at(const Context& c, const toml::node& n, const std::string& key);
+
 template <class E>
 E choice_at(const Context& c, const toml::node& n, const std::string& key,
             std::initializer_list<std::pair<const char*, E>> options) {
@@ -128,6 +131,10 @@ E choice_at(const Context& c, const toml::node& n, const std::string& key,
     list += (list.empty() ? "" : ", ") + in_quotes(text);
   }
   fail(c, key, "must be one of " + list + " (got " + in_quotes(s) + ")");
+}
+
+int axis_at(const Context& c, const toml::node& n, const std::string& key) {
+  return choice_at<int>(c, n, key, {{"x", 0}, {"y", 1}, {"z", 2}});
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -287,7 +294,8 @@ void read_box(const Context& c, Table& top, Scene& s) {
 
 void read_model(const Context& c, Table& top, Scene& s) {
   Table t(c, top.require_table("model"), "model",
-          {"conservative", "density_kernel", "rd", "thermostat", "kBT", "lambda"});
+          {"conservative", "density_kernel", "rd", "thermostat", "kBT", "lambda",
+           "body_force_profile", "body_force_axis"});
   sim::Model& m = s.model;
   m.conservative = choice_at<sim::ConservativeKind>(
       c, t.require("conservative"), "model.conservative",
@@ -314,6 +322,17 @@ void read_model(const Context& c, Table& top, Scene& s) {
     if (!(*lam >= 0 && *lam <= 1))
       fail(c, "model.lambda", "must be in [0, 1] (got " + num(*lam) + ")");
     m.lambda = *lam;
+  }
+  if (const toml::node* n = t.get("body_force_profile"))
+    m.body_force_profile =
+        choice_at<sim::BodyForceProfile>(c, *n, "model.body_force_profile",
+                                         {{"uniform", sim::BodyForceProfile::Uniform},
+                                          {"reversed", sim::BodyForceProfile::Reversed}});
+  if (m.body_force_profile == sim::BodyForceProfile::Reversed) {
+    if (const toml::node* n = t.get("body_force_axis"))
+      m.body_force_axis = axis_at(c, *n, "model.body_force_axis");
+  } else {
+    t.forbid("body_force_axis", "unless model.body_force_profile = \"reversed\"");
   }
   t.finish();
 }
@@ -503,10 +522,40 @@ void read_stages(const Context& c, Table& top, Scene& s) {
   }
 }
 
+std::vector<std::string> string_list_at(const Context& c, const toml::node& n,
+                                        const std::string& key) {
+  const toml::array* a = n.as_array();
+  if (!a) fail(c, key, "must be an array of strings (got " + describe(n) + ")");
+  std::vector<std::string> out;
+  for (size_t i = 0; i < a->size(); ++i) out.push_back(string_at(c, *a->get(i), indexed(key, i)));
+  return out;
+}
+
+std::uint64_t positive_integer(const Context& c, Table& t, const std::string& k,
+                               std::uint64_t fallback) {
+  const auto v = t.integer(k);
+  if (!v) return fallback;
+  if (*v < 1) fail(c, t.key(k), "must be >= 1 (got " + std::to_string(*v) + ")");
+  return static_cast<std::uint64_t>(*v);
+}
+
+std::vector<std::string> type_names_at(const Context& c, const Scene& s, Table& t) {
+  const toml::node* n = t.get("types");
+  if (!n) return {};
+  std::vector<std::string> names = string_list_at(c, *n, t.key("types"));
+  if (names.empty()) fail(c, t.key("types"), "must name at least one type (or be left out)");
+  for (size_t i = 0; i < names.size(); ++i)
+    if (s.model.type_index(names[i]) < 0)
+      fail(c, indexed(t.key("types"), i), "unknown type " + in_quotes(names[i]));
+  return names;
+}
+
 void read_output(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("output");
   if (!tbl) return;
-  Table t(c, *tbl, "output", {"thermo_every", "snapshot_every", "final_snapshot"});
+  Table t(
+      c, *tbl, "output",
+      {"thermo_every", "snapshot_every", "final_snapshot", "average_stages", "profiles", "fields"});
   for (auto [key, target] : {std::pair{"thermo_every", &s.output.thermo_every},
                              std::pair{"snapshot_every", &s.output.snapshot_every}}) {
     if (auto v = t.integer(key)) {
@@ -515,6 +564,84 @@ void read_output(const Context& c, Table& top, Scene& s) {
     }
   }
   if (auto f = t.boolean("final_snapshot")) s.output.final_snapshot = *f;
+  if (const toml::node* n = t.get("average_stages")) {
+    s.output.average_stages = string_list_at(c, *n, "output.average_stages");
+    for (size_t i = 0; i < s.output.average_stages.size(); ++i) {
+      const std::string& name = s.output.average_stages[i];
+      bool found = false;
+      for (const auto& st : s.stages) found = found || st.name == name;
+      if (!found) fail(c, indexed("output.average_stages", i), "no stage named " + in_quotes(name));
+    }
+  }
+  std::set<std::string> names;
+  if (const toml::node* n = t.get("profiles")) {
+    const toml::array* a = n->as_array();
+    if (!a || !a->is_array_of_tables())
+      fail(c, "output.profiles",
+           "must be an array of tables ([[output.profiles]]) (got " + describe(*n) + ")");
+    for (size_t i = 0; i < a->size(); ++i) {
+      Table p(c, *a->get(i)->as_table(), indexed("output.profiles", i),
+              {"name", "axis", "bins", "every", "types"});
+      BinnedOutputSpec spec;
+      spec.axis = axis_at(c, p.require("axis"), p.key("axis"));
+      const std::int64_t bins = p.require_integer("bins");
+      if (bins < 1 || bins > 100000)
+        fail(c, p.key("bins"), "must be in 1..100000 (got " + std::to_string(bins) + ")");
+      spec.cells[static_cast<size_t>(spec.axis)] = static_cast<int>(bins);
+      spec.every = positive_integer(c, p, "every", 10);
+      spec.types = type_names_at(c, s, p);
+      spec.name = p.string("name").value_or(std::string("profile_") + "xyz"[spec.axis]);
+      p.finish();
+      s.output.profiles.push_back(std::move(spec));
+    }
+  }
+  if (const toml::table* ft = t.table("fields")) {
+    Table f(c, *ft, "output.fields", {"cells", "every", "types"});
+    BinnedOutputSpec spec;
+    spec.name = "fields";
+    const auto cells = f.require_vec3("cells");
+    double total = 1;
+    for (size_t a = 0; a < 3; ++a) {
+      if (!(cells[a] >= 1 && cells[a] <= 4096 && cells[a] == std::floor(cells[a])))
+        fail(c, indexed("output.fields.cells", a),
+             "must be a whole number in 1..4096 (got " + num(cells[a]) + ")");
+      spec.cells[a] = static_cast<int>(cells[a]);
+      total *= cells[a];
+    }
+    if (total > 64.0 * 1024 * 1024)
+      fail(c, "output.fields.cells", "more than 64 Mi cells (got " + num(total) + ")");
+    spec.every = positive_integer(c, f, "every", 100);
+    spec.types = type_names_at(c, s, f);
+    f.finish();
+    s.output.fields = std::move(spec);
+  }
+  for (const auto& p : s.output.profiles) {
+    if (p.name.empty() || p.name == "fields" || !names.insert(p.name).second)
+      fail(c, "output.profiles",
+           "profile names must be unique and not \"fields\" (" + in_quotes(p.name) + " repeats)");
+    for (char ch : p.name)
+      if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-'))
+        fail(c, "output.profiles",
+             "name " + in_quotes(p.name) + " may contain only letters, digits, '_' and '-'");
+  }
+  t.finish();
+}
+
+void read_units(const Context& c, Table& top, Scene& s) {
+  const toml::table* tbl = top.table("units");
+  if (!tbl) return;
+  Table t(c, *tbl, "units", {"nm_per_rc", "temperature_K", "particle_mass_kg"});
+  s.units.nm_per_rc = t.require_number("nm_per_rc");
+  if (!(s.units.nm_per_rc > 0))
+    fail(c, "units.nm_per_rc", "must be > 0 (got " + num(s.units.nm_per_rc) + ")");
+  if (auto T = t.number("temperature_K")) {
+    if (!(*T > 0)) fail(c, "units.temperature_K", "must be > 0 (got " + num(*T) + ")");
+    s.units.temperature_K = *T;
+  }
+  if (auto m = t.number("particle_mass_kg")) {
+    if (!(*m > 0)) fail(c, "units.particle_mass_kg", "must be > 0 (got " + num(*m) + ")");
+    s.units.particle_mass_kg = *m;
+  }
   t.finish();
 }
 
@@ -561,9 +688,9 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   Scene s;
   s.path = path_for_messages;
   s.source_text = text;
-  Table top(
-      c, root, "",
-      {"name", "seed", "precision", "box", "model", "types", "pairs", "init", "run", "output"});
+  Table top(c, root, "",
+            {"name", "seed", "precision", "box", "model", "types", "pairs", "init", "run", "output",
+             "units"});
   const std::string stem = path_for_messages.stem().string();
   s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
   if (s.name.empty()) fail(c, "name", "must not be empty");
@@ -582,8 +709,22 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   read_init(c, top, s);
   read_stages(c, top, s);
   read_output(c, top, s);
+  read_units(c, top, s);
+  if (s.model.body_force_profile == sim::BodyForceProfile::Reversed && !s.model.has_body_force())
+    fail(c, "model.body_force_profile", "\"reversed\" needs a body_force on at least one type");
+  if (s.model.body_force_profile == sim::BodyForceProfile::Reversed &&
+      !s.box.periodic[static_cast<size_t>(s.model.body_force_axis)])
+    fail(c, "model.body_force_axis", "reverse Poiseuille flow needs a periodic axis");
   top.finish();
   return s;
+}
+
+bool stage_is_averaged(const Scene& scene, const std::string& stage_name) {
+  if (scene.output.average_stages.empty())
+    return !scene.stages.empty() && scene.stages.back().name == stage_name;
+  for (const auto& n : scene.output.average_stages)
+    if (n == stage_name) return true;
+  return false;
 }
 
 Scene load_scene(const fs::path& path) {

@@ -31,10 +31,32 @@ struct StageSpec {
   double dt = 0.01;
 };
 
+// A time-averaged binned observable: a profile along one axis ([[output.profiles]]) or a 3-D
+// field on a grid of cells ([output.fields]).
+struct BinnedOutputSpec {
+  std::string name;                   // output file stem
+  std::array<int, 3> cells{1, 1, 1};  // bins per axis (a profile has bins along one axis only)
+  int axis = -1;                      // profiles: the axis; fields: -1
+  std::uint64_t every = 10;           // sample every N steps
+  std::vector<std::string> types;     // counted types; empty = every mobile type
+};
+
 struct OutputSpec {
   std::uint64_t thermo_every = 100;  // rows of thermo.csv; 0 = off
   std::uint64_t snapshot_every = 0;  // HDF5 snapshots; 0 = only the final state
   bool final_snapshot = true;
+  // Stages whose samples enter time averages (summary, profiles, fields); empty = the last stage.
+  std::vector<std::string> average_stages;
+  std::vector<BinnedOutputSpec> profiles;
+  std::optional<BinnedOutputSpec> fields;
+};
+
+// Physical scale of the reduced units, recorded with every output when given ([units]).
+struct UnitsSpec {
+  double nm_per_rc = 0;  // 0 = not given (outputs then carry reduced units only)
+  double temperature_K = 298.15;
+  // Mass of one particle; 0 = the papers' water model (3 molecules of 18 g/mol).
+  double particle_mass_kg = 0;
 };
 
 struct Scene {
@@ -45,12 +67,16 @@ struct Scene {
   std::vector<InitSpec> init;
   std::vector<StageSpec> stages;
   OutputSpec output;
+  UnitsSpec units;
   std::string source_text;  // the file's text, recorded in outputs
 };
 
 // Reads and validates a scene. Throws ConfigError/IoError with a one-line "file: key: problem".
 Scene load_scene(const std::filesystem::path& path);
 Scene parse_scene(const std::string& text, const std::filesystem::path& path_for_messages);
+
+// The stages whose samples enter time averages: output.average_stages, or the last stage.
+bool stage_is_averaged(const Scene& scene, const std::string& stage_name);
 
 // Builds the initial particles a scene describes (random/lattice fills, HDF5 files), with
 // Maxwell velocities at model.kBT for mobile particles of generated blocks (particles read from

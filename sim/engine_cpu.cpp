@@ -119,6 +119,25 @@ class CpuEngine final : public Engine<Real> {
     return total;
   }
 
+  // Serial on purpose: the sums then come out the same whatever the thread count, and binning is
+  // O(N) against the force pass's O(N x neighbours).
+  void bin_sums(const BinGrid& grid, std::vector<double>& sums) override {
+    const StepView<Real> v = s_->view();
+    const BinView<Real> b = BinView<Real>::make(grid);
+    sums.assign(grid.count() * kBinFields, 0.0);
+    for (int i = 0; i < v.n; ++i) {
+      const int bin = bin_of_particle(v, b, i);
+      if (bin < 0) continue;
+      double* s = sums.data() + static_cast<size_t>(kBinFields) * bin;
+      const double vel[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
+      s[kBinCount] += 1.0;
+      for (int a = 0; a < 3; ++a) {
+        s[kBinVx + a] += vel[a];
+        s[kBinVxx + a] += vel[a] * vel[a];
+      }
+    }
+  }
+
  private:
   // Applies the requested thread count for the duration of a call, then restores it.
   struct ThreadScope {

@@ -15,6 +15,7 @@
 #include "sim/box.h"
 #include "sim/cell_grid.h"
 #include "sim/hd.h"
+#include "sim/observables.h"
 #include "sim/pair_terms.h"
 #include "sim/rng.h"
 
@@ -42,6 +43,8 @@ struct StepView {
   const PairParams<Real>* table = nullptr;  // ntypes x ntypes, symmetric
   int ntypes = 0;
   const Real* body_force = nullptr;  // ntypes x 3
+  int body_force_axis = 2;           // profile axis of a position-dependent body force
+  Real body_force_midplane = 0;      // its sign changes here (ReversedBodyForce)
   std::uint32_t frozen_mask = 0;     // bit t set: type t never moves
 
   Real rd = Real(0.75);
@@ -164,9 +167,11 @@ MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i) {
     });
     if constexpr (BodyForce::enabled) {
       const Real* g = v.body_force + 3 * v.type[i];
-      fx += g[0];
-      fy += g[1];
-      fz += g[2];
+      const Real* pos = v.body_force_axis == 0 ? v.x : (v.body_force_axis == 1 ? v.y : v.z);
+      const Real s = BodyForce::sign(pos[i], v.body_force_midplane);
+      fx += s * g[0];
+      fy += s * g[1];
+      fz += s * g[2];
     }
   }
   v.fx[i] = fx;
@@ -270,6 +275,15 @@ MESO_HD MESO_INLINE ParticleVirial<Real> virial_of_particle(const StepView<Real>
     }
   });
   return w;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Binned observables: the bin particle i adds to, or -1 when its type is not counted or it lies
+// outside the grid.
+template <class Real>
+MESO_HD MESO_INLINE int bin_of_particle(const StepView<Real>& v, const BinView<Real>& b, int i) {
+  if (!((b.type_mask >> v.type[i]) & 1u)) return -1;
+  return b.bin_of(v.x[i], v.y[i], v.z[i]);
 }
 
 }  // namespace mesorock::sim

@@ -11,12 +11,18 @@ namespace mesorock::sim {
 enum class ConservativeKind { DPD, MDPD };
 enum class DensityKernelKind { Warren, Lucy };
 enum class Precision { Single, Double };
+// Uniform: F = g_type everywhere. Reversed: +g_type below the box's mid-plane along
+// body_force_axis, -g_type above (reverse Poiseuille flow, for measuring viscosity).
+enum class BodyForceProfile { Uniform, Reversed };
 
 inline const char* to_string(ConservativeKind k) {
   return k == ConservativeKind::DPD ? "dpd" : "mdpd";
 }
 inline const char* to_string(DensityKernelKind k) {
   return k == DensityKernelKind::Warren ? "warren" : "lucy";
+}
+inline const char* to_string(BodyForceProfile p) {
+  return p == BodyForceProfile::Uniform ? "uniform" : "reversed";
 }
 inline const char* to_string(Precision p) {
   return p == Precision::Single ? "single" : "double";
@@ -43,6 +49,8 @@ struct Model {
   double rd = 0.75;     // many-body cutoff (density kernel and repulsion range)
   double kBT = 1.0;     // thermostat temperature
   double lambda = 0.5;  // velocity-Verlet lambda (Groot & Warren); 0.5 = plain velocity Verlet
+  BodyForceProfile body_force_profile = BodyForceProfile::Uniform;
+  int body_force_axis = 2;  // Reversed only: the axis across which the force changes sign
   std::uint64_t seed = 1;
   Precision precision = Precision::Double;
 

@@ -107,16 +107,34 @@ struct DPDThermostat {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Per-type body force g_t (force per particle; m = 1), applied after the pair loop.
+// Body force per particle (m = 1), applied after the pair loop: F = s(x) g_type, where the sign
+// s depends on the position only for the reverse-Poiseuille profile.
 
 struct NoBodyForce {
   static constexpr bool enabled = false;
   static constexpr const char* name = "off";
 };
 
+// s = 1: a uniform pressure gradient (or gravity) per type.
 struct PerTypeBodyForce {
   static constexpr bool enabled = true;
   static constexpr const char* name = "per-type";
+  template <class Real>
+  MESO_HD static MESO_INLINE Real sign(Real /*coordinate*/, Real /*midplane*/) {
+    return Real(1);
+  }
+};
+
+// Reverse Poiseuille flow (Backer, Lowe, Hoefsloot & Iedema, J. Chem. Phys. 122, 154503 (2005)):
+// s = +1 below the box's mid-plane along the profile axis, -1 above it. A periodic box then holds
+// two opposite parabolic flows with no walls, from which the shear viscosity follows.
+struct ReversedBodyForce {
+  static constexpr bool enabled = true;
+  static constexpr const char* name = "reversed";
+  template <class Real>
+  MESO_HD static MESO_INLINE Real sign(Real coordinate, Real midplane) {
+    return coordinate < midplane ? Real(1) : Real(-1);
+  }
 };
 
 }  // namespace mesorock::sim

@@ -30,6 +30,8 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
   if (!(m.rd > 0 && m.rd <= 1)) throw ConfigError("rd must be in (0, 1] (units of rc)");
   check_finite(m.kBT, "kBT");
   if (!(m.kBT > 0)) throw ConfigError("kBT must be positive");
+  if (m.body_force_axis < 0 || m.body_force_axis > 2)
+    throw ConfigError("body force axis must be 0, 1 or 2 (x, y, z)");
   check_finite(m.lambda, "lambda");
   if (!(m.lambda >= 0 && m.lambda <= 1)) throw ConfigError("lambda must be in [0, 1]");
   for (int a = 0; a < m.ntypes(); ++a) {
@@ -116,6 +118,10 @@ class SimulationImpl final : public Simulation {
       s.box.periodic[a] = box.periodic[a];
     }
     s.grid = CellGrid<Real>::make(s.box, Real(1));
+    s.body_force_axis = model.body_force_axis;
+    s.body_force_midplane =
+        static_cast<Real>(0.5 * (box.lo[static_cast<size_t>(model.body_force_axis)] +
+                                 box.hi[static_cast<size_t>(model.body_force_axis)]));
     s.rd = static_cast<Real>(model.rd);
     s.dt = static_cast<Real>(dt);
     s.lambda = static_cast<Real>(model.lambda);
@@ -261,6 +267,15 @@ class SimulationImpl final : public Simulation {
       out.random[c] = w.random[c] * inv_v;
     }
     return out;
+  }
+
+  std::vector<double> bin_sums(const BinGrid& grid) override {
+    for (int a = 0; a < 3; ++a)
+      if (grid.cells[static_cast<size_t>(a)] < 1 || !(grid.width(a) > 0))
+        throw ConfigError("bins: every axis needs at least one bin of positive width");
+    std::vector<double> sums;
+    engine_->bin_sums(grid, sums);
+    return sums;
   }
 
   const Model& model() const override {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "sim/model.h"
+#include "sim/observables.h"
 
 namespace mesorock::sim {
 
@@ -66,6 +67,10 @@ class Simulation {
   virtual double kinetic_temperature() = 0;      // sum m v^2 / (3 N_mobile)
   virtual std::array<double, 3> momentum() = 0;  // total momentum of mobile particles
   virtual StressSample stress() = 0;             // kinetic + pair virials, per volume
+  // Per-bin sums over the current configuration (kBinFields per bin: count, sum v, sum v*v), for
+  // profiles and fields; average them with BinnedAverage. Computed where the particles live (on
+  // the device for CUDA); only the bins cross to the host.
+  virtual std::vector<double> bin_sums(const BinGrid& grid) = 0;
 
   virtual const Model& model() const = 0;
   virtual const BoxSpec& box() const = 0;

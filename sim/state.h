@@ -28,6 +28,8 @@ struct HostState {
   std::vector<Real> body_force;         // ntypes x 3
   std::uint32_t frozen_mask = 0;
   int ntypes = 0;
+  int body_force_axis = 2;
+  Real body_force_midplane = 0;
 
   Box<Real> box;
   CellGrid<Real> grid;
@@ -55,6 +57,8 @@ struct HostState {
     v.ntypes = ntypes;
     v.body_force = body_force.data();
     v.frozen_mask = frozen_mask;
+    v.body_force_axis = body_force_axis;
+    v.body_force_midplane = body_force_midplane;
     v.rd = rd;
     v.dt = dt;
     v.inv_sqrt_dt = Real(1) / static_cast<Real>(std::sqrt(static_cast<double>(dt)));
@@ -87,6 +91,8 @@ class Engine {
   // Virial of the current configuration, with the same v~ and random numbers the last force pass
   // used (the pair RNG is keyed by step, so nothing needs storing).
   virtual VirialSums virial() = 0;
+  // Per-bin sums (kBinFields per bin, see observables.h) over the current configuration.
+  virtual void bin_sums(const BinGrid& grid, std::vector<double>& sums) = 0;
   virtual std::uint64_t step() const = 0;
   // Bytes of device memory this engine holds (0 on the CPU).
   virtual std::size_t device_bytes() const { return 0; }

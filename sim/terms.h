@@ -21,20 +21,29 @@ struct TermSet {
 template <class... Ts>
 struct TypeList {};
 
-// 3 conservative x 2 thermostat x 2 body force = 12 variants per precision.
+// 3 conservative x 2 thermostat x 3 body force = 18 variants per precision.
+template <class C>
+using TermSetsFor =
+    TypeList<TermSet<C, NoThermostat, NoBodyForce>, TermSet<C, NoThermostat, PerTypeBodyForce>,
+             TermSet<C, NoThermostat, ReversedBodyForce>, TermSet<C, DPDThermostat, NoBodyForce>,
+             TermSet<C, DPDThermostat, PerTypeBodyForce>,
+             TermSet<C, DPDThermostat, ReversedBodyForce>>;
+
+template <class... Lists>
+struct ConcatLists;
+template <class... A>
+struct ConcatLists<TypeList<A...>> {
+  using type = TypeList<A...>;
+};
+template <class... A, class... B, class... Rest>
+struct ConcatLists<TypeList<A...>, TypeList<B...>, Rest...> {
+  using type = typename ConcatLists<TypeList<A..., B...>, Rest...>::type;
+};
+
 using CompiledTermSets =
-    TypeList<TermSet<ConservativeDPD, NoThermostat, NoBodyForce>,
-             TermSet<ConservativeDPD, NoThermostat, PerTypeBodyForce>,
-             TermSet<ConservativeDPD, DPDThermostat, NoBodyForce>,
-             TermSet<ConservativeDPD, DPDThermostat, PerTypeBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelWarren>, NoThermostat, NoBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelWarren>, NoThermostat, PerTypeBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelWarren>, DPDThermostat, NoBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelWarren>, DPDThermostat, PerTypeBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelLucy>, NoThermostat, NoBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelLucy>, NoThermostat, PerTypeBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelLucy>, DPDThermostat, NoBodyForce>,
-             TermSet<ConservativeMDPD<DensityKernelLucy>, DPDThermostat, PerTypeBodyForce>>;
+    typename ConcatLists<TermSetsFor<ConservativeDPD>,
+                         TermSetsFor<ConservativeMDPD<DensityKernelWarren>>,
+                         TermSetsFor<ConservativeMDPD<DensityKernelLucy>>>::type;
 
 template <class Terms>
 bool term_set_matches(const Model& m) {
@@ -48,8 +57,16 @@ bool term_set_matches(const Model& m) {
   } else {
     cons = m.conservative == ConservativeKind::MDPD && m.density_kernel == DensityKernelKind::Lucy;
   }
-  return cons && Terms::thermostat::enabled == m.thermostat &&
-         Terms::body_force::enabled == m.has_body_force();
+  using B = typename Terms::body_force;
+  bool body;
+  if constexpr (!B::enabled) {
+    body = !m.has_body_force();
+  } else if constexpr (std::is_same_v<B, PerTypeBodyForce>) {
+    body = m.has_body_force() && m.body_force_profile == BodyForceProfile::Uniform;
+  } else {
+    body = m.has_body_force() && m.body_force_profile == BodyForceProfile::Reversed;
+  }
+  return cons && Terms::thermostat::enabled == m.thermostat && body;
 }
 
 namespace detail {

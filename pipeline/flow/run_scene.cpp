@@ -13,14 +13,82 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
+#include "pipeline/flow/observable_outputs.h"
+#include "pipeline/flow/statistics.h"
 #include "sim/particle_io.h"
 
 namespace mesorock::pipeline {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+const char* const kStressNames[6] = {"xx", "yy", "zz", "xy", "xz", "yz"};
+
+// The types a binned observable counts: the named ones, or every mobile type.
+std::uint32_t type_mask_for(const Scene& scene, const std::vector<std::string>& names) {
+  std::uint32_t mask = 0;
+  if (names.empty()) {
+    for (int t = 0; t < scene.model.ntypes(); ++t)
+      if (!scene.model.types[static_cast<size_t>(t)].frozen) mask |= 1u << t;
+  } else {
+    for (const auto& n : names) mask |= 1u << scene.model.type_index(n);
+  }
+  return mask;
+}
+
+struct BinnedRun {
+  BinnedOutputSpec spec;
+  sim::BinnedAverage average;
+};
+
+BinnedRun make_binned(const Scene& scene, const BinnedOutputSpec& spec) {
+  sim::BinGrid g;
+  g.cells = spec.cells;
+  g.lo = scene.box.lo;
+  g.hi = scene.box.hi;
+  g.type_mask = type_mask_for(scene, spec.types);
+  return BinnedRun{spec, sim::BinnedAverage(g)};
+}
+
+nlohmann::json mean_json(const MeanWithError& m) {
+  return {{"mean", m.mean}, {"error", m.error}, {"samples", m.samples}};
+}
+
+// Time series of the scalar observables sampled in the averaged stages.
+struct ScalarSeries {
+  std::vector<double> temperature, pressure, pressure_conservative;
+  std::array<std::vector<double>, 6> stress;
+
+  void add(double T, const sim::StressSample& st) {
+    temperature.push_back(T);
+    pressure.push_back(st.pressure());
+    pressure_conservative.push_back(st.pressure_conservative());
+    const auto total = st.total();
+    for (int c = 0; c < 6; ++c)
+      stress[static_cast<size_t>(c)].push_back(total[static_cast<size_t>(c)]);
+  }
+  nlohmann::json to_json() const {
+    nlohmann::json j = {{"temperature", mean_json(block_average(temperature))},
+                        {"pressure", mean_json(block_average(pressure))},
+                        {"pressure_conservative", mean_json(block_average(pressure_conservative))}};
+    for (int c = 0; c < 6; ++c)
+      j["stress"][kStressNames[c]] = mean_json(block_average(stress[static_cast<size_t>(c)]));
+    return j;
+  }
+};
+
+std::string step_name(std::uint64_t step) {
+  std::ostringstream s;
+  s << "step_" << std::setw(9) << std::setfill('0') << step;
+  return s.str();
+}
+
+}  // namespace
+
 void run_scene(const Scene& scene, const RunOptions& o) {
-  using Clock = std::chrono::steady_clock;
   const auto t_start = Clock::now();
   sim::ParticleSet initial = build_initial_particles(scene);
   if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
@@ -35,45 +103,87 @@ void run_scene(const Scene& scene, const RunOptions& o) {
               << sim->pass_name() << ", backend " << sim->backend_name() << ", "
               << sim::to_string(scene.model.precision) << " precision\n";
 
+  const nlohmann::json provenance = {{"scene", scene.path.string()},
+                                     {"seed", scene.model.seed},
+                                     {"backend", sim->backend_name()},
+                                     {"pass", sim->pass_name()}};
+  sim::ParticleFileMeta particle_meta;
+  for (const auto& t : scene.model.types) particle_meta.type_names.push_back(t.name);
+  particle_meta.box = scene.box;
+  particle_meta.created_by = "rockflow run";
+  particle_meta.provenance_json = provenance.dump();
+  particle_meta.length_unit = "rc";
+
   // thermo.csv grows during the run under its temporary name and is renamed at the end.
   const fs::path thermo_path = o.out_dir / "thermo.csv";
   const fs::path thermo_tmp = temporary_path_for(thermo_path);
   std::ofstream thermo;
-  if (scene.output.thermo_every > 0) {
+  const std::uint64_t thermo_every = scene.output.thermo_every;
+  if (thermo_every > 0) {
     thermo.open(thermo_tmp);
     if (!thermo) throw IoError(thermo_path.string() + ": cannot open for writing");
     thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene " << scene.path.string()
-           << ", reduced units (rc = m = kBT = 1)\n";
-    thermo << "step,time,stage,temperature,pressure,px,py,pz\n";
+           << ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per volume\n";
+    thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz\n";
     thermo << std::setprecision(10);
   }
+  std::vector<BinnedRun> binned;
+  for (const auto& p : scene.output.profiles) binned.push_back(make_binned(scene, p));
+  if (scene.output.fields) binned.push_back(make_binned(scene, *scene.output.fields));
+  ScalarSeries series;
+
   double time = 0;
   std::uint64_t total_steps = 0;
   const auto t_run = Clock::now();
   try {
     for (const auto& stage : scene.stages) {
       sim->set_dt(stage.dt);
+      const bool averaged = stage_is_averaged(scene, stage.name);
       std::uint64_t done = 0;
-      const std::uint64_t chunk = scene.output.thermo_every > 0
-                                      ? scene.output.thermo_every
-                                      : std::max<std::uint64_t>(stage.steps, 1);
       const auto t_stage = Clock::now();
+      // Progress about every hundredth of the stage; outputs at their own multiples of the step.
+      const std::uint64_t progress_every = std::max<std::uint64_t>(1, stage.steps / 100);
       while (done < stage.steps) {
-        const std::uint64_t n = std::min(chunk, stage.steps - done);
+        const std::uint64_t step = sim->step();
+        std::uint64_t n = std::min(stage.steps - done, progress_every - done % progress_every);
+        auto until_next = [&](std::uint64_t every) {
+          if (every > 0) n = std::min(n, every - step % every);
+        };
+        until_next(thermo_every);
+        until_next(scene.output.snapshot_every);
+        if (averaged)
+          for (const auto& b : binned) until_next(b.spec.every);
         sim->run(n);
         done += n;
         time += static_cast<double>(n) * stage.dt;
-        if (scene.output.thermo_every > 0) {
+        const std::uint64_t now = sim->step();
+        if (thermo_every > 0 && now % thermo_every == 0) {
           const double T = sim->kinetic_temperature();
           const auto st = sim->stress();
           const auto p = sim->momentum();
           if (!std::isfinite(T) || !std::isfinite(st.pressure()))
-            throw NumericalError("step " + std::to_string(sim->step()) +
+            throw NumericalError("step " + std::to_string(now) +
                                  ": temperature or pressure is not finite (dt = " +
                                  std::to_string(stage.dt) + " may be too large)");
-          thermo << sim->step() << "," << time << "," << stage.name << "," << T << ","
-                 << st.pressure() << "," << p[0] << "," << p[1] << "," << p[2] << "\n";
+          const auto total = st.total();
+          thermo << now << "," << time << "," << stage.name << "," << T << "," << st.pressure();
+          for (double v : total) thermo << "," << v;
+          thermo << "," << p[0] << "," << p[1] << "," << p[2] << "\n";
+          if (averaged) series.add(T, st);
         }
+        if (scene.output.snapshot_every > 0 && now % scene.output.snapshot_every == 0) {
+          const fs::path dir = o.out_dir / "snapshots";
+          fs::create_directories(dir, ec);
+          if (ec) throw IoError(dir.string() + ": cannot create folder: " + ec.message());
+          particle_meta.step = now;
+          particle_meta.time = time;
+          const fs::path h5 = dir / (step_name(now) + ".h5");
+          sim::write_particle_file(h5, sim->particles(), particle_meta);
+          sim::write_particle_xdmf(dir / (step_name(now) + ".xmf"), h5, sim->size(), time);
+        }
+        if (averaged)
+          for (auto& b : binned)
+            if (now % b.spec.every == 0) b.average.add(sim->bin_sums(b.average.grid()));
         if (o.progress) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
           const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;
@@ -81,7 +191,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           // On a terminal one line is redrawn; in a log, a line per tenth of the stage.
           const bool tty = isatty(STDERR_FILENO);
           const std::uint64_t tenth = std::max<std::uint64_t>(1, stage.steps / 10);
-          if (tty || done == stage.steps || (done / tenth) != ((done - n) / tenth))
+          if ((tty && done % progress_every == 0) || done == stage.steps ||
+              (done / tenth) != ((done - n) / tenth))
             std::cerr << (tty ? "\r" : "") << "  stage " << stage.name << ": " << done << "/"
                       << stage.steps << " steps, " << std::setprecision(3) << rate << " MPS/s, ETA "
                       << std::setprecision(3) << eta << " s" << (tty ? "   " : "\n") << std::flush;
@@ -102,21 +213,26 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     if (ec) throw IoError(thermo_path.string() + ": cannot rename: " + ec.message());
   }
 
-  nlohmann::json provenance = {{"scene", scene.path.string()},
-                               {"seed", scene.model.seed},
-                               {"backend", sim->backend_name()},
-                               {"pass", sim->pass_name()}};
   if (scene.output.final_snapshot) {
-    sim::ParticleFileMeta meta;
-    for (const auto& t : scene.model.types) meta.type_names.push_back(t.name);
-    meta.box = scene.box;
+    particle_meta.step = sim->step();
+    particle_meta.time = time;
+    sim::write_particle_file(o.out_dir / "final.h5", sim->particles(), particle_meta);
+    sim::write_particle_xdmf(o.out_dir / "final.xmf", o.out_dir / "final.h5", sim->size(), time);
+  }
+
+  const std::optional<sim::UnitSystem> units =
+      scene.units.nm_per_rc > 0 ? std::optional<sim::UnitSystem>(unit_system_of(scene.units))
+                                : std::nullopt;
+  nlohmann::json binned_json = nlohmann::json::object();
+  for (const auto& b : binned) {
+    ObservableOutputMeta meta;
     meta.step = sim->step();
     meta.time = time;
-    meta.created_by = "rockflow run";
     meta.provenance_json = provenance.dump();
-    meta.length_unit = "rc";
-    sim::write_particle_file(o.out_dir / "final.h5", sim->particles(), meta);
-    sim::write_particle_xdmf(o.out_dir / "final.xmf", o.out_dir / "final.h5", sim->size());
+    meta.units = units;
+    write_binned_outputs(o.out_dir, b.spec, b.average, meta);
+    binned_json[b.spec.name] = {
+        {"samples", b.average.samples()}, {"blocks", b.average.blocks()}, {"every", b.spec.every}};
   }
 
   const double T = sim->kinetic_temperature();
@@ -139,7 +255,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       {"mps",
        run_seconds > 0 ? sim->size() * static_cast<double>(total_steps) / run_seconds / 1e6 : 0.0},
       {"final_temperature", T},
-      {"units", "reduced: rc = m = kBT = 1"},
+      {"averages", series.temperature.empty() ? nlohmann::json(nullptr) : series.to_json()},
+      {"binned_outputs", binned_json},
+      {"units", units_json(units)},
       {"scene", scene.source_text}};
   write_text_atomically(o.out_dir / "summary.json", summary.dump(2) + "\n");
   if (o.progress)

@@ -12,9 +12,15 @@ struct RunOptions {
   bool progress = true;
 };
 
-// Runs every stage of a scene. Writes into out_dir: thermo.csv (step, time, T, p, momentum),
-// final.h5 + final.xmf (particles), summary.json (version, commit, backend, counts, wall time,
-// MPS/s, the scene text). Files are written under temporary names and renamed when complete.
+// Runs every stage of a scene. Writes into out_dir:
+//   thermo.csv            step, time, stage, T, p, stress tensor, momentum (every thermo_every)
+//   snapshots/step_N.h5   + .xmf, every snapshot_every steps (when asked)
+//   final.h5 + final.xmf  the particles at the end
+//   PROFILE.h5 / .csv     time-averaged profiles ([[output.profiles]])
+//   fields.h5 + .xmf      time-averaged 3-D fields ([output.fields])
+//   summary.json          version, commit, backend, counts, wall time, MPS/s, time averages with
+//                         error bars, unit conversions when [units] is given, the scene text
+// Each file is written under a temporary name and renamed when complete.
 void run_scene(const Scene& scene, const RunOptions& options);
 
 }  // namespace mesorock::pipeline

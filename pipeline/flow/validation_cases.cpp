@@ -1,4 +1,4 @@
-// The foundation's validation cases: eos-dpd, eos-mdpd, conservation.
+// The validation case registry and the foundation's cases: eos-dpd, eos-mdpd, conservation.
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -215,6 +215,10 @@ const std::vector<ValidationCase>& validation_cases() {
       {"eos-mdpd", "mDPD equation of state, A = -40, B = 25 (Warren fit) + phase separation",
        run_eos_mdpd},
       {"conservation", "momentum conservation and thermostat temperature", run_conservation},
+      {"slab", "liquid-vacuum slab: bulk density and surface tension, A = -50 and -40",
+       run_slab_case},
+      {"viscosity", "reverse Poiseuille flow: shear viscosity at three forcings",
+       run_viscosity_case},
   };
   return cases;
 }

@@ -22,7 +22,7 @@ $bin/unit_sim 2>&1 | tee "$out/unit_sim.log" | tail -3
 
 size=small
 [ "$mode" = full ] && size=full
-for c in eos-dpd eos-mdpd conservation; do
+for c in ${CASES:-eos-dpd eos-mdpd conservation slab viscosity}; do
   $bin/rockflow validate $c --size $size --backend cuda --json 2>>"$out/validate.log" | tee -a "$out/validate.jsonl" | cut -c1-200
 done
 

@@ -3,6 +3,7 @@
 // (only with a many-body term); forces; kick. Nothing crosses to the host unless an output asks.
 #include <cuda_runtime.h>
 
+#include <cub/block/block_reduce.cuh>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
 #include <sstream>
@@ -120,15 +121,39 @@ __global__ void force_kernel(StepView<Real> v) {
   if (i < v.n) force_on_particle<Real, C, T, B>(v, i);
 }
 
+// Virial of each particle, summed per thread block (fixed tree order, so the result is the same
+// every run); the host adds the per-block partials in block order. 18 doubles per block instead
+// of per particle keeps the stress observable within the memory budget.
 template <class Real, class C, class T>
-__global__ void virial_kernel(StepView<Real> v, double* out) {
+__global__ void virial_kernel(StepView<Real> v, double* block_sums) {
+  using BlockReduce = cub::BlockReduce<double, kBlock>;
+  __shared__ typename BlockReduce::TempStorage temp;
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  ParticleVirial<Real> w;
+  if (i < v.n) w = virial_of_particle<Real, C, T>(v, i);
+  const Real* parts[3] = {w.conservative, w.dissipative, w.random};
+  for (int p = 0; p < 3; ++p)
+    for (int c = 0; c < 6; ++c) {
+      const double total = BlockReduce(temp).Sum(static_cast<double>(parts[p][c]));
+      if (threadIdx.x == 0) block_sums[18 * blockIdx.x + 6 * p + c] = total;
+      __syncthreads();  // temp is reused by the next reduction
+    }
+}
+
+// Binned sums (count, v, v*v) with atomics. The order of the atomic additions varies, so the last
+// bits of a GPU profile may differ between runs; the trajectory itself does not.
+template <class Real>
+__global__ void bin_kernel(StepView<Real> v, BinView<Real> b, double* sums) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= v.n) return;
-  const ParticleVirial<Real> w = virial_of_particle<Real, C, T>(v, i);
-  for (int c = 0; c < 6; ++c) {
-    out[18 * i + c] = w.conservative[c];
-    out[18 * i + 6 + c] = w.dissipative[c];
-    out[18 * i + 12 + c] = w.random[c];
+  const int bin = bin_of_particle(v, b, i);
+  if (bin < 0) return;
+  double* s = sums + static_cast<size_t>(kBinFields) * bin;
+  const double vel[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
+  atomicAdd(s + kBinCount, 1.0);
+  for (int a = 0; a < 3; ++a) {
+    atomicAdd(s + kBinVx + a, vel[a]);
+    atomicAdd(s + kBinVxx + a, vel[a] * vel[a]);
   }
 }
 
@@ -216,19 +241,32 @@ class CudaEngine final : public Engine<Real> {
 
   VirialSums virial() override {
     // Allocated on first use only: runs that never ask for stress own no such buffer.
-    virial_.resize(static_cast<size_t>(18) * n_);
-    virial_kernel<Real, C, T><<<blocks_for(n_), kBlock>>>(view(), virial_.get());
+    const int g = blocks_for(n_);
+    virial_.resize(static_cast<size_t>(18) * g);
+    virial_kernel<Real, C, T><<<g, kBlock>>>(view(), virial_.get());
     check(cudaGetLastError(), "virial kernel");
     std::vector<double> h;
     virial_.download(h);
     VirialSums s;
-    for (int i = 0; i < n_; ++i)
+    for (int b = 0; b < g; ++b)
       for (int c = 0; c < 6; ++c) {
-        s.conservative[c] += h[18 * static_cast<size_t>(i) + c];
-        s.dissipative[c] += h[18 * static_cast<size_t>(i) + 6 + c];
-        s.random[c] += h[18 * static_cast<size_t>(i) + 12 + c];
+        s.conservative[c] += h[18 * static_cast<size_t>(b) + c];
+        s.dissipative[c] += h[18 * static_cast<size_t>(b) + 6 + c];
+        s.random[c] += h[18 * static_cast<size_t>(b) + 12 + c];
       }
     return s;
+  }
+
+  void bin_sums(const BinGrid& grid, std::vector<double>& sums) override {
+    // Sized by the largest grid asked for so far; nothing is held before the first request.
+    const size_t len = grid.count() * kBinFields;
+    if (bins_.size() < len) bins_.resize(len);
+    check(cudaMemset(bins_.get(), 0, len * sizeof(double)), "bin reset");
+    bin_kernel<<<blocks_for(n_), kBlock>>>(view(), BinView<Real>::make(grid), bins_.get());
+    check(cudaGetLastError(), "bin kernel");
+    sums.resize(len);
+    check(cudaMemcpy(sums.data(), bins_.get(), len * sizeof(double), cudaMemcpyDeviceToHost),
+          "bin download");
   }
 
  private:
@@ -317,7 +355,7 @@ class CudaEngine final : public Engine<Real> {
     for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
       b += a->size() * sizeof(int);
     b += sort_temp_.size() + table_.size() * sizeof(PairParams<Real>) +
-         virial_.size() * sizeof(double);
+         (virial_.size() + bins_.size()) * sizeof(double);
     return b;
   }
 
@@ -347,7 +385,7 @@ class CudaEngine final : public Engine<Real> {
   DeviceBuffer<unsigned char> sort_temp_;
   DeviceBuffer<PairParams<Real>> table_;
   DeviceBuffer<Real> body_force_;
-  DeviceBuffer<double> virial_;
+  DeviceBuffer<double> virial_, bins_;
   bool profile_ = false;
   cudaEvent_t events_[6] = {};
   double pass_ms_[5] = {0, 0, 0, 0, 0};
