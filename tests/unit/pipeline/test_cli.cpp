@@ -38,7 +38,7 @@ TEST(RockflowCli, CudaWithoutDeviceFailsWithOneLineAndExitTwo) {
 TEST(RockflowCli, ValidateListsTheCasesOnePerLine) {
   const CommandResult r = rockflow("validate --list");
   EXPECT_EQ(r.exit_code, 0);
-  for (const char* c : {"eos-dpd\n", "eos-mdpd\n", "conservation\n"})
+  for (const char* c : {"eos-dpd\n", "eos-mdpd\n", "conservation\n", "slab\n", "viscosity\n"})
     EXPECT_NE(r.out.find(c), std::string::npos) << r.out;
 }
 
