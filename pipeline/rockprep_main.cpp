@@ -1,5 +1,6 @@
 // rockprep: image stack -> phase grids -> pore statistics -> particles (subcommands grow with the
-// rockprep issues). Part 1: load, filter, segment, synth (see docs/voxel.md).
+// rockprep issues). Part 1: load, filter, segment, synth; part 2: analyze, crop, resample, walls
+// (see docs/voxel.md).
 #include <CLI/CLI.hpp>
 
 #include <iostream>
@@ -17,8 +18,10 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", std::string("rockprep ") + mesorock::kVersion + " (" +
                                           mesorock::kGitCommit + ")");
     const std::vector<prep::Command> commands = {
-        prep::add_load_command(app), prep::add_filter_command(app), prep::add_segment_command(app),
-        prep::add_synth_command(app)};
+        prep::add_load_command(app),     prep::add_filter_command(app),
+        prep::add_segment_command(app),  prep::add_synth_command(app),
+        prep::add_analyze_command(app),  prep::add_crop_command(app),
+        prep::add_resample_command(app), prep::add_walls_command(app)};
     app.require_subcommand(0, 1);
     try {
       app.parse(argc, argv);

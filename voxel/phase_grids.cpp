@@ -17,25 +17,92 @@ namespace mesorock::voxel {
 namespace {
 
 using MaskLeaf = openvdb::MaskTree::LeafNodeType;
-using LabelLeaf = openvdb::Int32Tree::LeafNodeType;
+using UInt8Leaf = UInt8Tree::LeafNodeType;
+using Int32Leaf = openvdb::Int32Tree::LeafNodeType;
 constexpr int kBlock = 8;  // OpenVDB leaf edge (Log2Dim 3)
-static_assert(MaskLeaf::DIM == kBlock && LabelLeaf::DIM == kBlock, "leaf size");
+constexpr int kBlockVoxels = kBlock * kBlock * kBlock;
+static_assert(MaskLeaf::DIM == kBlock && UInt8Leaf::DIM == kBlock && Int32Leaf::DIM == kBlock,
+              "leaf size");
 
 // Everything one z-slab of 8x8x8 blocks contributes, gathered in parallel, added to the trees in
-// one serial pass (adding a leaf is a pointer insertion).
+// one serial pass (adding a leaf is a pointer insertion). Label leaves are made either 8-bit or
+// 32-bit, never both.
 struct SlabNodes {
   std::array<std::vector<std::unique_ptr<MaskLeaf>>, kPhaseCount> mask_leaves;
   std::array<std::vector<openvdb::Coord>, kPhaseCount> mask_tiles;
-  std::vector<std::unique_ptr<LabelLeaf>> label_leaves;
+  std::vector<std::unique_ptr<UInt8Leaf>> uint8_leaves;
+  std::vector<std::unique_ptr<Int32Leaf>> int32_leaves;
   std::vector<std::pair<openvdb::Coord, int>> label_tiles;
   std::array<bool, kPhaseCount> present{};
 };
+
+// A label leaf with the block's codes (leaf offset order) and the active mask of its phase voxels.
+template <class Leaf>
+std::unique_ptr<Leaf> label_leaf(const openvdb::Coord& origin, const std::uint8_t* block,
+                                 const std::uint64_t (*words)[kBlock]) {
+  using Value = typename Leaf::ValueType;
+  auto leaf = std::make_unique<Leaf>(origin, Value(0), false);
+  Value* values = leaf->buffer().data();
+  for (int i = 0; i < kBlockVoxels; ++i) values[i] = static_cast<Value>(block[i]);
+  auto& mask = leaf->getValueMask();
+  for (int w = 0; w < kBlock; ++w) {
+    mask.template getWord<openvdb::Index64>(static_cast<openvdb::Index>(w)) =
+        words[1][w] | words[2][w] | words[3][w] | words[4][w];
+  }
+  return leaf;
+}
+
+// Adds the slabs' label leaves and tiles to a new grid named "labels".
+template <class GridT>
+openvdb::GridBase::Ptr assemble_label_grid(std::vector<SlabNodes>& slabs) {
+  using Value = typename GridT::ValueType;
+  typename GridT::Ptr grid = GridT::create(Value(0));
+  auto& tree = grid->tree();
+  for (SlabNodes& slab : slabs) {
+    if constexpr (std::is_same_v<Value, std::uint8_t>) {
+      for (auto& leaf : slab.uint8_leaves) tree.addLeaf(leaf.release());
+      slab.uint8_leaves.clear();
+    } else {
+      for (auto& leaf : slab.int32_leaves) tree.addLeaf(leaf.release());
+      slab.int32_leaves.clear();
+    }
+    for (const auto& [c, phase] : slab.label_tiles) {
+      tree.addTile(1, c, static_cast<Value>(phase), true);
+    }
+    slab.label_tiles.clear();
+    slab.label_tiles.shrink_to_fit();
+  }
+  openvdb::tools::prune(tree);
+  return grid;
+}
 
 }  // namespace
 
 void initialize_openvdb() {
   static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
+  std::call_once(once, [] {
+    openvdb::initialize();
+    if (!UInt8Grid::isRegistered()) UInt8Grid::registerGrid();
+  });
+}
+
+const char* label_grid_type_name(LabelGridType type) {
+  switch (type) {
+    case LabelGridType::kNone:
+      return "none";
+    case LabelGridType::kUInt8:
+      return "uint8";
+    case LabelGridType::kInt32:
+      return "int32";
+  }
+  return "?";
+}
+
+LabelGridType parse_label_grid_type(const std::string& name) {
+  if (name == "none") return LabelGridType::kNone;
+  if (name == "uint8") return LabelGridType::kUInt8;
+  if (name == "int32") return LabelGridType::kInt32;
+  throw ConfigError("unknown label grid type '" + name + "' (expected uint8, int32 or none)");
 }
 
 openvdb::math::Transform::Ptr voxel_transform(const Spacing& spacing) {
@@ -59,7 +126,7 @@ openvdb::GridPtrVec build_phase_grids(const Volume& labels, const PhaseGridOptio
     // Per block: the phase codes in leaf offset order (x slowest, z fastest, as OpenVDB stores
     // them), and per phase the 8 64-bit words of its bit mask (word x, bit y * 8 + z), so leaves
     // are filled word by word rather than voxel by voxel.
-    std::int32_t block[kBlock * kBlock * kBlock];
+    std::uint8_t block[kBlockVoxels];
     std::uint64_t words[kPhaseCount][kBlock];
     for (std::int64_t jb = 0; jb < by; ++jb) {
       for (std::int64_t ib = 0; ib < bx; ++ib) {
@@ -81,7 +148,7 @@ openvdb::GridPtrVec build_phase_grids(const Volume& labels, const PhaseGridOptio
                     "label volume holds value " + std::to_string(c) + ", not a phase code";
                 return;
               }
-              block[(dx << 6) | bit] = static_cast<std::int32_t>(c);
+              block[(dx << 6) | bit] = static_cast<std::uint8_t>(c);
               words[c][dx] |= std::uint64_t(1) << bit;
               present |= 1u << c;
             }
@@ -100,15 +167,10 @@ openvdb::GridPtrVec build_phase_grids(const Volume& labels, const PhaseGridOptio
           continue;
         }
         if ((present & ~1u) == 0) continue;  // only outside voxels: nothing to store
-        if (options.label_grid) {
-          auto leaf = std::make_unique<LabelLeaf>(origin, 0, false);
-          std::copy(std::begin(block), std::end(block), leaf->buffer().data());
-          auto& mask = leaf->getValueMask();
-          for (int w = 0; w < kBlock; ++w) {
-            mask.template getWord<openvdb::Index64>(static_cast<openvdb::Index>(w)) =
-                words[1][w] | words[2][w] | words[3][w] | words[4][w];
-          }
-          slab.label_leaves.push_back(std::move(leaf));
+        if (options.label_grid == LabelGridType::kUInt8) {
+          slab.uint8_leaves.push_back(label_leaf<UInt8Leaf>(origin, block, words));
+        } else if (options.label_grid == LabelGridType::kInt32) {
+          slab.int32_leaves.push_back(label_leaf<Int32Leaf>(origin, block, words));
         }
         for (int phase = 1; phase < kPhaseCount; ++phase) {
           if (!(present & (1u << phase))) continue;
@@ -154,16 +216,10 @@ openvdb::GridPtrVec build_phase_grids(const Volume& labels, const PhaseGridOptio
       grids.push_back(grid);
     }
   }
-  if (options.label_grid) {
-    openvdb::Int32Grid::Ptr grid = openvdb::Int32Grid::create(0);
-    openvdb::Int32Tree& tree = grid->tree();
-    for (SlabNodes& slab : slabs) {
-      for (auto& leaf : slab.label_leaves) tree.addLeaf(leaf.release());
-      for (const auto& [c, phase] : slab.label_tiles) tree.addTile(1, c, phase, true);
-      slab.label_leaves.clear();
-      slab.label_tiles.clear();
-    }
-    openvdb::tools::prune(tree);
+  if (options.label_grid != LabelGridType::kNone) {
+    openvdb::GridBase::Ptr grid = options.label_grid == LabelGridType::kUInt8
+                                      ? assemble_label_grid<UInt8Grid>(slabs)
+                                      : assemble_label_grid<openvdb::Int32Grid>(slabs);
     grid->setName("labels");
     grid->setTransform(transform->copy());
     grid->insertMeta("phase_codes", openvdb::StringMetadata(

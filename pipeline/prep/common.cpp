@@ -9,6 +9,7 @@
 #include "mesorock/version.h"
 #include "voxel/npy_io.h"
 #include "voxel/raw_io.h"
+#include "voxel/segment.h"
 #include "voxel/staged_output.h"
 #include "voxel/tiff_io.h"
 
@@ -153,6 +154,72 @@ voxel::Volume load_input(const InputArgs& input, Progress& progress, voxel::Read
   progress.note(s.str() + timing);
   for (const std::string& w : report->warnings) progress.warn(w);
   return volume;
+}
+
+void LabelInputArgs::add_to(CLI::App* app) {
+  input.add_to(app);
+  app->add_option("--labels", labels,
+                  "Phases of a volume labelled elsewhere: value=phase,... e.g. "
+                  "'true=pore,false=solid' or '0=pore,255=solid' (not needed for rockprep's own "
+                  "label files, whose sidecar gives the phase codes)");
+}
+
+bool has_phase_codes(const voxel::ReadReport& report) {
+  return report.provenance.is_object() && report.provenance.contains("phase_codes");
+}
+
+voxel::Volume load_labels(const LabelInputArgs& args, Progress& progress, nlohmann::json* record) {
+  InputArgs input = args.input;
+  const std::filesystem::path as_folder(input.path);
+  if (std::filesystem::is_directory(as_folder) &&
+      std::filesystem::exists(as_folder / "labels.mhd")) {
+    input.path = (as_folder / "labels.mhd").string();  // a segment output folder
+  }
+  // Parse the map before the (possibly long) load.
+  const voxel::LabelMap map =
+      args.labels.empty() ? voxel::LabelMap{} : voxel::LabelMap::parse(args.labels);
+  voxel::ReadReport report;
+  voxel::Volume volume = load_input(input, progress, &report);
+  nlohmann::json in = input_record(input, volume, report);
+  if (!args.labels.empty()) {
+    const voxel::Spacing spacing = volume.spacing();
+    volume = progress.stage("label by map " + map.str(), volume.voxels(), [&] {
+      return about_file(input.path,
+                        [&] { return voxel::segment_by_label_map(std::move(volume), map); });
+    });
+    volume.set_spacing(spacing);
+    in["label_map"] = map.str();
+  } else if (has_phase_codes(report)) {
+    if (volume.dtype() != voxel::DType::kUInt8) {
+      throw ConfigError(input.path + ": phase labels must be uint8, not " +
+                        voxel::dtype_name(volume.dtype()));
+    }
+    in["phase_codes"] = report.provenance["phase_codes"];
+  } else {
+    throw ConfigError(input.path +
+                      ": not a phase-label volume (no mesorock sidecar with phase codes); give "
+                      "--labels VALUE=PHASE,... e.g. --labels 0=pore,255=solid");
+  }
+  if (record) *record = in;
+  return volume;
+}
+
+void write_json(const std::filesystem::path& path, const nlohmann::json& record,
+                const std::string& display_name) {
+  std::ofstream s(path);
+  s << record.dump(2) << "\n";
+  s.close();
+  if (!s) throw IoError(display_name + ": write failed");
+}
+
+void check_output_folder(const std::string& out) {
+  const std::filesystem::path p(out);
+  if (!p.parent_path().empty() && !std::filesystem::is_directory(p.parent_path())) {
+    throw IoError(out + ": parent folder does not exist");
+  }
+  if (std::filesystem::exists(p) && !std::filesystem::is_directory(p)) {
+    throw IoError(out + ": exists and is not a folder");
+  }
 }
 
 nlohmann::json apply_filters(const FilterArgs& filters, voxel::Volume& volume, Progress& progress,

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <optional>
@@ -13,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mesorock/errors.h"
 #include "voxel/filters.h"
 #include "voxel/load.h"
 #include "voxel/volume.h"
@@ -29,6 +31,10 @@ Command add_load_command(CLI::App& rockprep);
 Command add_filter_command(CLI::App& rockprep);
 Command add_segment_command(CLI::App& rockprep);
 Command add_synth_command(CLI::App& rockprep);
+Command add_analyze_command(CLI::App& rockprep);
+Command add_crop_command(CLI::App& rockprep);
+Command add_resample_command(CLI::App& rockprep);
+Command add_walls_command(CLI::App& rockprep);
 
 // The command line as typed, recorded in every output's provenance.
 void set_command_line(int argc, char** argv);
@@ -97,6 +103,40 @@ class Progress {
 
 // Loads the input with a progress line and prints the loader's warnings.
 voxel::Volume load_input(const InputArgs& input, Progress& progress, voxel::ReadReport* report);
+
+// A phase-label volume: a file whose mesorock sidecar gives phase codes (segment's labels.mhd,
+// synth's truth.mhd, or crop/resample outputs of them), a segment output folder (its
+// labels.mhd), or any integer volume with an explicit --labels map. Labels are never guessed.
+struct LabelInputArgs {
+  InputArgs input;
+  std::string labels;  // "value=phase,..." ("" : the sidecar must give phase codes)
+
+  void add_to(CLI::App* app);
+};
+
+// Loads a phase-label volume (uint8 phase codes) with its progress line; `record` receives the
+// input record with how the phases were obtained.
+voxel::Volume load_labels(const LabelInputArgs& args, Progress& progress, nlohmann::json* record);
+
+// True when the input's sidecar marks it as a phase-label volume.
+bool has_phase_codes(const voxel::ReadReport& report);
+
+// Re-throws a library ConfigError with `file` in front, so the one-line error names the file.
+template <class Fn>
+decltype(auto) about_file(const std::string& file, Fn&& fn) {
+  try {
+    return fn();
+  } catch (const ConfigError& e) {
+    throw ConfigError(file + ": " + e.what());
+  }
+}
+
+// Writes `record` as indented JSON to a staged path (IoError naming `display_name`).
+void write_json(const std::filesystem::path& path, const nlohmann::json& record,
+                const std::string& display_name);
+
+// Refuses an output folder whose parent is missing, or a file in its place (before any work).
+void check_output_folder(const std::string& out);
 
 // Runs FilterArgs on `volume`; returns the parameters and the field of view (if any) as JSON.
 nlohmann::json apply_filters(const FilterArgs& filters, voxel::Volume& volume, Progress& progress,

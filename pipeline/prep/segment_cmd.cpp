@@ -29,6 +29,7 @@ struct SegmentArgs {
   std::string exclude_value;
   bool organic_pores = false;
   bool no_label_grid = false;
+  std::string label_grid = "uint8";
   std::string truth;
   std::string out;
   bool quiet = false;
@@ -67,6 +68,7 @@ int run_segment(const SegmentArgs& a) {
   if (!a.labels.empty() && !a.phases.empty()) {
     throw ConfigError("segment: --phases is for --thresholds/--otsu; --labels names its phases");
   }
+  const voxel::LabelGridType label_grid_type = voxel::parse_label_grid_type(a.label_grid);
   const fs::path out(a.out);
   if (!out.parent_path().empty() && !fs::is_directory(out.parent_path())) {
     throw IoError(a.out + ": parent folder does not exist");
@@ -199,18 +201,25 @@ int run_segment(const SegmentArgs& a) {
   }
 
   voxel::PhaseGridOptions grid_options;
-  grid_options.label_grid = !a.no_label_grid;
-  const openvdb::GridPtrVec grids = progress.stage("build OpenVDB phase grids", n, [&] {
+  grid_options.label_grid = a.no_label_grid ? voxel::LabelGridType::kNone : label_grid_type;
+  openvdb::GridPtrVec grids = progress.stage("build OpenVDB phase grids", n, [&] {
     return voxel::build_phase_grids(labels, grid_options);
   });
-  params["label_grid"] = grid_options.label_grid;
+  // The masks go to phases.vdb (standard grid types only), the label grid to labels.vdb.
+  openvdb::GridPtrVec label_grids;
+  if (grid_options.label_grid != voxel::LabelGridType::kNone) {
+    label_grids.push_back(grids.back());
+    grids.pop_back();
+  }
+  params["label_grid"] = voxel::label_grid_type_name(grid_options.label_grid);
   std::size_t grid_bytes = 0;
   for (const auto& grid : grids) grid_bytes += grid->memUsage();
+  for (const auto& grid : label_grids) grid_bytes += grid->memUsage();
   {
     std::ostringstream s;
     s.precision(3);
-    s << grids.size() << " grids, " << double(grid_bytes) / double(1 << 20) << " MiB in memory";
-    if (grid_options.label_grid) s << " (--no-label-grid keeps only the phase masks)";
+    s << grids.size() + label_grids.size() << " grids, " << double(grid_bytes) / double(1 << 20)
+      << " MiB in memory";
     progress.note(s.str());
   }
 
@@ -223,6 +232,7 @@ int run_segment(const SegmentArgs& a) {
   record["counted_voxels"] = counts.counted();
   record["outside_voxels"] = counts.voxels[0];
   record["outputs"] = {"phases.vdb", "labels.mhd", "labels.raw", "labels.json", "segment.json"};
+  if (!label_grids.empty()) record["outputs"].push_back("labels.vdb");
   record["warnings"] = progress.warnings();
 
   progress.stage("write " + a.out, n, [&] {
@@ -230,6 +240,10 @@ int run_segment(const SegmentArgs& a) {
     const std::map<std::string, std::string> vdb_meta = {
         {"mesorock_version", kVersion}, {"git_commit", kGitCommit}, {"provenance", record.dump()}};
     voxel::write_vdb(outputs.stage("phases.vdb"), grids, vdb_meta, (out / "phases.vdb").string());
+    if (!label_grids.empty()) {
+      voxel::write_vdb(outputs.stage("labels.vdb"), label_grids, vdb_meta,
+                       (out / "labels.vdb").string());
+    }
     nlohmann::json labels_record = provenance("segment");
     labels_record["input"] = record["input"];
     labels_record["phase_codes"] = "0=outside,1=pore,2=organic,3=inorganic,4=organic_pore";
@@ -251,8 +265,8 @@ Command add_segment_command(CLI::App& rockprep) {
   CLI::App* app = rockprep.add_subcommand(
       "segment",
       "Segment a stack into phases (pore, organic, inorganic, organic_pore): thresholds, "
-      "multi-Otsu or an explicit label map; writes DIR/phases.vdb, DIR/labels.mhd (+.raw, "
-      ".json) and DIR/segment.json");
+      "multi-Otsu or an explicit label map; writes DIR/phases.vdb, DIR/labels.vdb, "
+      "DIR/labels.mhd (+.raw, .json) and DIR/segment.json");
   args->input.add_to(app);
   args->filters.add_to(app, /*with_fill=*/false);
   app->add_option("--thresholds", args->thresholds,
@@ -272,9 +286,14 @@ Command add_segment_command(CLI::App& rockprep) {
                   "Voxels with this value are outside (not counted), e.g. a scanner's fill value");
   app->add_flag("--organic-pores", args->organic_pores,
                 "Relabel pore clusters surrounded mostly by organic matter as organic_pore");
+  app->add_option("--label-grid", args->label_grid,
+                  "Label grid written to labels.vdb: uint8 (default; 1 byte per voxel of mixed "
+                  "8x8x8 blocks, a grid type mesorock registers), int32 (openvdb::Int32Grid, "
+                  "readable by any OpenVDB program, 4 bytes per voxel) or none")
+      ->check(CLI::IsMember({"uint8", "int32", "none"}));
   app->add_flag("--no-label-grid", args->no_label_grid,
-                "Write only the per-phase masks to phases.vdb, not the Int32 'labels' grid (which "
-                "costs 4 bytes per voxel in mixed 8x8x8 blocks; labels.mhd has the labels too)");
+                "Same as --label-grid none: only the per-phase masks (phases.vdb); labels.mhd has "
+                "the labels too");
   app->add_option("--truth", args->truth,
                   "Known labels (e.g. from 'synth') to measure the segmentation against");
   app->add_option("--out", args->out, "Output folder")->required();

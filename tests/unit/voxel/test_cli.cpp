@@ -16,37 +16,6 @@
 namespace mesorock::voxel::test {
 namespace {
 
-std::vector<std::string> lines(const std::string& text) {
-  std::vector<std::string> out;
-  std::istringstream s(text);
-  std::string line;
-  while (std::getline(s, line)) {
-    if (!line.empty()) out.push_back(line);
-  }
-  return out;
-}
-
-// Nothing but the inputs the test made may be left in `dir` (no outputs, no ".partial" files).
-void expect_only(const fs::path& dir, std::vector<std::string> expected) {
-  std::vector<std::string> found;
-  for (const auto& e : fs::directory_iterator(dir)) found.push_back(e.path().filename().string());
-  std::sort(found.begin(), found.end());
-  std::sort(expected.begin(), expected.end());
-  EXPECT_EQ(found, expected);
-}
-
-// Runs rockprep expecting exit code 2 and a single "rockprep: error: ..." line naming `file`.
-void expect_bad_input(const TempDir& tmp, const std::string& args, const std::string& file) {
-  const CommandResult r =
-      run_command("cd " + tmp.path().string() + " && " + rockprep() + " " + args, tmp.path());
-  EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
-  const std::vector<std::string> err = lines(r.err);
-  ASSERT_EQ(err.size(), 1u) << args << "\n" << r.err;
-  EXPECT_EQ(err[0].rfind("rockprep: error: ", 0), 0u) << err[0];
-  EXPECT_NE(err[0].find(file), std::string::npos)
-      << "error does not name " << file << ": " << err[0];
-}
-
 void write_stack(const fs::path& dir, const Volume& v) {
   StagedOutputs out = StagedOutputs::in_directory(dir);
   write_tiff_slices(v, out, "", {});
@@ -145,7 +114,8 @@ TEST(Cli, SynthFilterSegmentPipeline) {
                   tmp.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << r.err;  // no warnings for a plausible porosity
-  for (const char* f : {"phases.vdb", "labels.mhd", "labels.raw", "labels.json", "segment.json"}) {
+  for (const char* f :
+       {"phases.vdb", "labels.vdb", "labels.mhd", "labels.raw", "labels.json", "segment.json"}) {
     EXPECT_TRUE(fs::exists(tmp / "seg" / f)) << f;
   }
   const auto seg = nlohmann::json::parse(read_bytes(tmp / "seg" / "segment.json"));
@@ -202,14 +172,29 @@ TEST(Cli, LabelledRockAndInvertedMapWarning) {
     std::sort(names.begin(), names.end());
     return names;
   };
-  EXPECT_EQ(grid_names(tmp / "ok" / "phases.vdb"),
-            (std::vector<std::string>{"inorganic", "labels", "pore"}));
+  EXPECT_EQ(grid_names(tmp / "ok" / "phases.vdb"), (std::vector<std::string>{"inorganic", "pore"}));
+  EXPECT_EQ(grid_names(tmp / "ok" / "labels.vdb"), (std::vector<std::string>{"labels"}));
+  EXPECT_EQ(
+      nlohmann::json::parse(read_bytes(tmp / "ok" / "segment.json"))["parameters"]["label_grid"],
+      "uint8");
   r = run_command(cd + " segment rock.raw --shape 4,5,6 --dtype uint8 --labels 0=pore,255=solid "
                        "--no-label-grid --out masks",
                   tmp.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(grid_names(tmp / "masks" / "phases.vdb"),
             (std::vector<std::string>{"inorganic", "pore"}));
+  EXPECT_FALSE(fs::exists(tmp / "masks" / "labels.vdb"));
+  // --label-grid int32 writes the standard OpenVDB type.
+  r = run_command(cd + " segment rock.raw --shape 4,5,6 --dtype uint8 --labels 0=pore,255=solid "
+                       "--label-grid int32 --out wide",
+                  tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  {
+    openvdb::io::File file((tmp / "wide" / "labels.vdb").string());
+    file.open();
+    EXPECT_EQ(file.readGrid("labels")->type(), "Tree_int32_5_4_3");
+    file.close();
+  }
   // Load converts to the canonical volume with the command-line spacing recorded.
   r = run_command(cd + " load rock.raw --shape 4,5,6 --dtype uint8 --spacing 5,2.5,2.5 --unit "
                        "nm --out canon.mhd",

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
 
+#include "mesorock/errors.h"
 #include "test_util.h"
 #include "voxel/phase_grids.h"
 #include "voxel/segment.h"
@@ -27,17 +28,38 @@ Volume sample_labels() {
   return v;
 }
 
+// Checks the label grid of `grids` (the last one, named "labels") voxel by voxel.
+template <class GridT>
+void expect_label_grid(const openvdb::GridPtrVec& grids, const Volume& labels) {
+  ASSERT_FALSE(grids.empty());
+  ASSERT_EQ(grids.back()->getName(), "labels");
+  auto label_grid = openvdb::gridPtrCast<GridT>(grids.back());
+  ASSERT_TRUE(label_grid) << grids.back()->type();
+  EXPECT_EQ(label_grid->activeVoxelCount(), openvdb::Index64(count_phases(labels).counted()));
+  auto accessor = label_grid->getConstAccessor();
+  const std::uint8_t* p = labels.data<std::uint8_t>();
+  for (int z = 0; z < 19; ++z)
+    for (int y = 0; y < 21; ++y)
+      for (int x = 0; x < 35; ++x) {
+        const openvdb::Coord ijk(x, y, z);
+        const int code = p[(z * 21 + y) * 35 + x];
+        ASSERT_EQ(int(accessor.getValue(ijk)), code) << x << "," << y << "," << z;
+        ASSERT_EQ(accessor.isValueOn(ijk), code != 0);
+      }
+  EXPECT_FALSE(accessor.isValueOn(openvdb::Coord(35, 0, 0)));  // beyond the volume
+  const openvdb::Vec3d voxel = label_grid->transform().voxelSize();
+  EXPECT_DOUBLE_EQ(voxel.x(), 2.5);
+  EXPECT_DOUBLE_EQ(voxel.y(), 2.5);
+  EXPECT_DOUBLE_EQ(voxel.z(), 5.0);
+  const openvdb::Vec3d world = label_grid->transform().indexToWorld(openvdb::Coord(2, 3, 4));
+  EXPECT_DOUBLE_EQ(world.z(), 20.0);
+}
+
 TEST(PhaseGrids, EveryVoxelKeepsItsPhase) {
   const Volume labels = sample_labels();
   const PhaseCounts counts = count_phases(labels);
   const openvdb::GridPtrVec grids = build_phase_grids(labels);
   ASSERT_EQ(grids.size(), 5u);  // pore, organic, inorganic, organic_pore, labels
-  openvdb::Int32Grid::Ptr label_grid;
-  for (const auto& g : grids) {
-    if (g->getName() == "labels") label_grid = openvdb::gridPtrCast<openvdb::Int32Grid>(g);
-  }
-  ASSERT_TRUE(label_grid);
-  EXPECT_EQ(label_grid->activeVoxelCount(), openvdb::Index64(counts.counted()));
   for (const auto& g : grids) {
     if (g->getName() == "labels") continue;
     auto mask = openvdb::gridPtrCast<openvdb::MaskGrid>(g);
@@ -48,23 +70,37 @@ TEST(PhaseGrids, EveryVoxelKeepsItsPhase) {
         << g->getName();
     EXPECT_EQ(mask->metaValue<openvdb::Int32>("phase_code"), static_cast<int>(phase));
   }
-  auto accessor = label_grid->getConstAccessor();
-  const std::uint8_t* p = labels.data<std::uint8_t>();
-  for (int z = 0; z < 19; ++z)
-    for (int y = 0; y < 21; ++y)
-      for (int x = 0; x < 35; ++x) {
-        const openvdb::Coord ijk(x, y, z);
-        const int code = p[(z * 21 + y) * 35 + x];
-        ASSERT_EQ(accessor.getValue(ijk), code) << x << "," << y << "," << z;
-        ASSERT_EQ(accessor.isValueOn(ijk), code != 0);
-      }
-  EXPECT_FALSE(accessor.isValueOn(openvdb::Coord(35, 0, 0)));  // beyond the volume
-  const openvdb::Vec3d voxel = label_grid->transform().voxelSize();
-  EXPECT_DOUBLE_EQ(voxel.x(), 2.5);
-  EXPECT_DOUBLE_EQ(voxel.y(), 2.5);
-  EXPECT_DOUBLE_EQ(voxel.z(), 5.0);
-  const openvdb::Vec3d world = label_grid->transform().indexToWorld(openvdb::Coord(2, 3, 4));
-  EXPECT_DOUBLE_EQ(world.z(), 20.0);
+  // The default label grid holds one byte per voxel; int32 is the standard OpenVDB type.
+  expect_label_grid<UInt8Grid>(grids, labels);
+  PhaseGridOptions options;
+  options.label_grid = LabelGridType::kInt32;
+  expect_label_grid<openvdb::Int32Grid>(build_phase_grids(labels, options), labels);
+  options.label_grid = LabelGridType::kNone;
+  EXPECT_EQ(build_phase_grids(labels, options).size(), 4u);
+  options.phase_masks = false;
+  options.label_grid = LabelGridType::kUInt8;
+  EXPECT_EQ(build_phase_grids(labels, options).size(), 1u);
+}
+
+TEST(PhaseGrids, Uint8LabelGridCostsAQuarterOfInt32) {
+  const Volume labels = sample_labels();
+  PhaseGridOptions options;
+  options.phase_masks = false;
+  const auto narrow = openvdb::gridPtrCast<UInt8Grid>(build_phase_grids(labels, options).back());
+  options.label_grid = LabelGridType::kInt32;
+  const auto wide =
+      openvdb::gridPtrCast<openvdb::Int32Grid>(build_phase_grids(labels, options).back());
+  ASSERT_TRUE(narrow && wide);
+  EXPECT_EQ(narrow->activeVoxelCount(), wide->activeVoxelCount());
+  EXPECT_EQ(narrow->tree().leafCount(), wide->tree().leafCount());
+  // Per mixed block: 512 bytes and the leaf's fixed overhead against 2048 and the same overhead
+  // (a volume this small is dominated by the internal nodes, so leaves are compared).
+  std::size_t narrow_bytes = 0, wide_bytes = 0;
+  for (auto it = narrow->tree().cbeginLeaf(); it; ++it) narrow_bytes += it->memUsage();
+  for (auto it = wide->tree().cbeginLeaf(); it; ++it) wide_bytes += it->memUsage();
+  EXPECT_LT(double(narrow_bytes), 0.3 * double(wide_bytes));
+  EXPECT_EQ(parse_label_grid_type("uint8"), LabelGridType::kUInt8);
+  EXPECT_THROW(parse_label_grid_type("int8"), ConfigError);
 }
 
 TEST(PhaseGrids, WriteAndReopenWithMetadata) {
@@ -79,9 +115,10 @@ TEST(PhaseGrids, WriteAndReopenWithMetadata) {
   ASSERT_TRUE(pore);
   EXPECT_EQ(pore->activeVoxelCount(), openvdb::Index64(count_phases(labels).voxels[1]));
   EXPECT_EQ(pore->metaValue<std::string>("unit"), "nm");
-  auto grid = openvdb::gridPtrCast<openvdb::Int32Grid>(file.readGrid("labels"));
+  auto grid = openvdb::gridPtrCast<UInt8Grid>(file.readGrid("labels"));
   ASSERT_TRUE(grid);
   EXPECT_EQ(grid->tree().getValue(openvdb::Coord(25, 10, 9)), 4);
+  EXPECT_EQ(grid->type(), "Tree_uint8_5_4_3");
   file.close();
 }
 

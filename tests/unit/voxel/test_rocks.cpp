@@ -8,6 +8,7 @@
 #include "test_util.h"
 #include "voxel/filters.h"
 #include "voxel/load.h"
+#include "voxel/pore_analysis.h"
 #include "voxel/segment.h"
 
 namespace mesorock::voxel::test {
@@ -27,6 +28,29 @@ TEST(Rocks, BereaNpzPorosity) {
   // README: 0.19872 (numpy, 5 digits).
   const double phi = porosity_with_map(rock("berea_100_to_300.npz"), "true=pore,false=solid");
   EXPECT_NEAR(phi, 0.19872, 0.5e-5);
+}
+
+TEST(Rocks, BereaClustersAndPercolation) {
+  SKIP_WITHOUT_ROCKS();
+  // README (numpy/scipy, 6-connected): 331 pore clusters, percolating porosity 0.19774 (the
+  // spanning cluster spans all three axes). scipy.ndimage.label with the full 3x3x3 structure
+  // gives 262 clusters and 0.197848 for 26-connectivity (checked here the same way).
+  Volume v = load_volume(rock("berea_100_to_300.npz"));
+  const Volume labels =
+      segment_by_label_map(std::move(v), LabelMap::parse("true=pore,false=solid"));
+  const PoreRuns runs = find_pore_runs(labels);
+  const double counted = double(labels.voxels());
+  const PercolationSummary six = summarize_clusters(find_pore_clusters(runs));
+  EXPECT_EQ(six.clusters, 331);
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(double(six.spanning_voxels[std::size_t(axis)]) / counted, 0.19774, 0.5e-5)
+        << axis_name(axis);
+  }
+  ClusterOptions all;
+  all.connectivity = 26;
+  const PercolationSummary c26 = summarize_clusters(find_pore_clusters(runs, all));
+  EXPECT_EQ(c26.clusters, 262);
+  EXPECT_NEAR(double(c26.spanning_voxels[0]) / counted, 0.197848375, 1e-9);
 }
 
 TEST(Rocks, BereaRawTwinPorosity) {

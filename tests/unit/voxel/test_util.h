@@ -6,6 +6,7 @@
 #include <tiffio.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -231,6 +232,40 @@ inline std::string make_zip(const std::vector<ZipEntry>& entries, bool zip64_end
 
 inline std::string rockprep() {
   return std::string("\"") + MESOROCK_ROCKPREP + "\"";
+}
+
+// The non-empty lines of a text.
+inline std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream s(text);
+  std::string line;
+  while (std::getline(s, line)) {
+    if (!line.empty()) out.push_back(line);
+  }
+  return out;
+}
+
+// Nothing but the inputs the test made may be left in `dir` (no outputs, no ".partial" files).
+inline void expect_only(const fs::path& dir, std::vector<std::string> expected) {
+  std::vector<std::string> found;
+  for (const auto& e : fs::directory_iterator(dir)) found.push_back(e.path().filename().string());
+  std::sort(found.begin(), found.end());
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(found, expected);
+}
+
+// Runs rockprep in `tmp` expecting exit code 2 and a single "rockprep: error: ..." line that
+// contains `needle` (usually the file the error is about).
+inline void expect_bad_input(const TempDir& tmp, const std::string& args,
+                             const std::string& needle) {
+  const CommandResult r =
+      run_command("cd " + tmp.path().string() + " && " + rockprep() + " " + args, tmp.path());
+  EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+  const std::vector<std::string> err = lines(r.err);
+  ASSERT_EQ(err.size(), 1u) << args << "\n" << r.err;
+  EXPECT_EQ(err[0].rfind("rockprep: error: ", 0), 0u) << err[0];
+  EXPECT_NE(err[0].find(needle), std::string::npos)
+      << "error does not name " << needle << ": " << err[0];
 }
 
 }  // namespace mesorock::voxel::test

@@ -1,0 +1,300 @@
+// rockprep analyze: pore statistics of a phase-label volume (porosity, surface area, clusters and
+// percolation, local thickness, porosity profiles): DIR/analysis.json and PNG plots.
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+#include "mesorock/errors.h"
+#include "pipeline/prep/common.h"
+#include "voxel/local_thickness.h"
+#include "voxel/plot.h"
+#include "voxel/pore_analysis.h"
+#include "voxel/staged_output.h"
+
+namespace fs = std::filesystem;
+
+namespace mesorock::pipeline::prep {
+namespace {
+
+struct AnalyzeArgs {
+  LabelInputArgs input;
+  std::string connectivity = "both";
+  int largest = 10;
+  std::string profile_axis = "z";
+  bool no_thickness = false;
+  int psd_bins = 0;
+  std::string out;
+  bool quiet = false;
+};
+
+std::string fixed(double v, int digits = 5) {
+  std::ostringstream s;
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
+nlohmann::json per_axis(const std::array<double, 3>& v) {
+  return {{"z", v[0]}, {"y", v[1]}, {"x", v[2]}};
+}
+
+nlohmann::json cluster_record(const voxel::PercolationSummary& sum, double counted,
+                              double voxel_volume) {
+  nlohmann::json j;
+  j["count"] = sum.clusters;
+  std::array<double, 3> perc{}, spanning{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    perc[a] = counted > 0 ? double(sum.spanning_voxels[a]) / counted : 0.0;
+    spanning[a] = double(sum.spanning_clusters[a]);
+  }
+  j["percolating_porosity"] = per_axis(perc);
+  j["spanning_clusters"] = per_axis(spanning);
+  j["percolating_porosity_any_axis"] = counted > 0 ? double(sum.percolating_voxels) / counted : 0.0;
+  j["isolated_clusters"] = sum.isolated_clusters;
+  j["isolated_porosity"] = counted > 0 ? double(sum.isolated_voxels) / counted : 0.0;
+  j["enclosed_clusters"] = sum.enclosed_clusters;
+  j["enclosed_porosity"] = counted > 0 ? double(sum.enclosed_voxels) / counted : 0.0;
+  nlohmann::json largest = nlohmann::json::array();
+  for (const voxel::Cluster& c : sum.largest_isolated) {
+    largest.push_back({{"voxels", c.voxels},
+                       {"volume", double(c.voxels) * voxel_volume},
+                       {"bbox_lo_zyx", c.lo},
+                       {"bbox_hi_zyx", c.hi},
+                       {"touches_boundary", c.touches_boundary()}});
+  }
+  j["largest_isolated"] = largest;
+  return j;
+}
+
+int run_analyze(const AnalyzeArgs& a) {
+  std::vector<int> connectivities;
+  if (a.connectivity == "6" || a.connectivity == "both") connectivities.push_back(6);
+  if (a.connectivity == "26" || a.connectivity == "both") connectivities.push_back(26);
+  const int profile_axis = voxel::parse_axis(a.profile_axis);
+  check_output_folder(a.out);
+
+  Progress progress(a.quiet);
+  nlohmann::json record = provenance("analyze");
+  nlohmann::json input;
+  voxel::Volume labels = load_labels(a.input, progress, &input);
+  record["input"] = input;
+  const std::string& name = input["path"].get_ref<const std::string&>();
+  const voxel::Shape shape = labels.shape();
+  const voxel::Spacing spacing = labels.spacing();
+  const std::int64_t n = labels.voxels();
+  const double voxel_volume = spacing.dz * spacing.dy * spacing.dx;
+
+  const voxel::PoreStatistics stats = progress.stage("porosity, interfaces, profiles", n, [&] {
+    return about_file(name, [&] { return voxel::measure_pores(labels); });
+  });
+  const double counted = double(stats.counts.counted());
+  const double porosity = stats.counts.porosity();
+  progress.note("porosity " + fixed(porosity) + " (" + std::to_string(stats.pore_voxels()) +
+                " pore of " + std::to_string(stats.counts.counted()) + " counted voxels)");
+  const std::string warning = voxel::porosity_warning(stats.counts);
+  if (!warning.empty()) progress.warn(name + ": " + warning);
+
+  record["parameters"] = {{"connectivity", connectivities},
+                          {"largest", a.largest},
+                          {"profile_axis", a.profile_axis},
+                          {"local_thickness", !a.no_thickness},
+                          {"psd_bins", a.psd_bins}};
+  record["definitions"] = {
+      {"pore", "phase codes 1 (pore) and 4 (organic_pore)"},
+      {"solid",
+       "phase codes 2 (organic) and 3 (inorganic); 0 (outside) is neither and is not "
+       "counted"},
+      {"porosity", "pore voxels / counted voxels"},
+      {"interface",
+       "faces between face-adjacent pore and solid voxels, each dy*dz, dx*dz or "
+       "dx*dy by its normal"},
+      {"specific_surface_area", "interface area / bulk volume of the counted voxels"},
+      {"percolating_porosity",
+       "voxels of the clusters holding voxels in both the first and the "
+       "last slice along the axis / counted voxels"},
+      {"isolated", "clusters spanning no axis; enclosed: isolated and touching no face"},
+      {"local_thickness",
+       "diameter of the largest sphere centred on a pore voxel, holding only "
+       "pore voxels (|q - c| < R, R = distance to the nearest voxel that is "
+       "not pore; the volume's faces are not walls) that contains the voxel"}};
+  record["shape_zyx"] = {shape.nz, shape.ny, shape.nx};
+  record["spacing_zyx"] = {spacing.dz, spacing.dy, spacing.dx};
+  record["unit"] = spacing.unit;
+  nlohmann::json phases = nlohmann::json::object();
+  for (int p = 0; p < voxel::kPhaseCount; ++p) {
+    phases[voxel::phase_name(static_cast<voxel::Phase>(p))] =
+        stats.counts.voxels[static_cast<std::size_t>(p)];
+  }
+  record["voxels"] = {
+      {"counted", stats.counts.counted()}, {"pore", stats.pore_voxels()}, {"by_phase", phases}};
+  record["porosity"] = porosity;
+  record["pore_volume"] = double(stats.pore_voxels()) * voxel_volume;
+  record["bulk_volume"] = counted * voxel_volume;
+
+  // Surface.
+  {
+    nlohmann::json s;
+    std::array<double, 3> faces{};
+    for (std::size_t ax = 0; ax < 3; ++ax) faces[ax] = double(stats.faces_normal_to(int(ax)));
+    s["faces"] = per_axis(faces);
+    s["interface_area"] = stats.interface_area(spacing);
+    s["specific_surface_area"] = stats.specific_surface_area(spacing);
+    s["specific_surface_area_unit"] = "1/" + spacing.unit;
+    s["area_per_pore_volume"] =
+        stats.pore_voxels()
+            ? stats.interface_area(spacing) / (double(stats.pore_voxels()) * voxel_volume)
+            : 0.0;
+    nlohmann::json by_phase = nlohmann::json::object();
+    for (voxel::Phase p : {voxel::Phase::kOrganic, voxel::Phase::kInorganic}) {
+      std::int64_t f = 0;
+      for (std::size_t ax = 0; ax < 3; ++ax) f += stats.faces[ax][static_cast<std::size_t>(p)];
+      if (f == 0) continue;
+      by_phase[voxel::phase_name(p)] = {{"faces", f},
+                                        {"interface_area", stats.interface_area(spacing, p)}};
+    }
+    s["by_solid_phase"] = by_phase;
+    record["surface"] = s;
+    progress.note("specific surface area " + fixed(stats.specific_surface_area(spacing)) + " 1/" +
+                  spacing.unit + " (voxel faces)");
+  }
+
+  // Profiles.
+  {
+    nlohmann::json profiles = nlohmann::json::object();
+    const double h[3] = {spacing.dz, spacing.dy, spacing.dx};
+    for (int ax = 0; ax < 3; ++ax) {
+      const std::vector<double> p = stats.porosity_profile(ax);
+      std::vector<double> position(p.size());
+      for (std::size_t i = 0; i < p.size(); ++i) position[i] = (double(i) + 0.5) * h[ax];
+      profiles[voxel::axis_name(ax)] = {{"position", position}, {"porosity", p}};
+    }
+    record["profiles"] = profiles;
+  }
+
+  // Clusters.
+  {
+    const voxel::PoreRuns runs = progress.stage("pore runs", n, [&] {
+      return about_file(name, [&] { return voxel::find_pore_runs(labels); });
+    });
+    progress.note(std::to_string(runs.count()) + " pore runs, " +
+                  fixed(double(runs.bytes()) / double(1 << 20), 4) + " MiB");
+    record["pore_runs"] = runs.count();
+    nlohmann::json clusters = nlohmann::json::object();
+    for (int c : connectivities) {
+      voxel::ClusterOptions o;
+      o.connectivity = c;
+      const std::vector<voxel::Cluster> found =
+          progress.stage("clusters, " + std::to_string(c) + "-connected", n,
+                         [&] { return voxel::find_pore_clusters(runs, o); });
+      const voxel::PercolationSummary sum =
+          voxel::summarize_clusters(found, static_cast<std::size_t>(a.largest));
+      nlohmann::json j = cluster_record(sum, counted, voxel_volume);
+      clusters[std::to_string(c)] = j;
+      progress.note(std::to_string(c) + "-connected: " + std::to_string(sum.clusters) +
+                    " clusters; percolating porosity z " +
+                    fixed(j["percolating_porosity"]["z"].get<double>()) + ", y " +
+                    fixed(j["percolating_porosity"]["y"].get<double>()) + ", x " +
+                    fixed(j["percolating_porosity"]["x"].get<double>()) + "; " +
+                    std::to_string(sum.isolated_clusters) + " isolated clusters");
+    }
+    record["clusters"] = clusters;
+  }
+
+  // Local thickness.
+  voxel::SizeDistribution psd;
+  bool have_psd = false;
+  if (!a.no_thickness) {
+    try {
+      const voxel::Volume thickness =
+          progress.stage("local thickness", n, [&] { return voxel::local_thickness(labels); });
+      psd = voxel::size_distribution(thickness, labels, a.psd_bins);
+      have_psd = true;
+    } catch (const ConfigError& e) {
+      progress.warn(name + ": " + e.what());
+    }
+  }
+  if (have_psd) {
+    nlohmann::json j;
+    j["unit"] = spacing.unit;
+    j["mean"] = psd.mean;
+    j["median"] = psd.median;
+    j["max"] = psd.max;
+    j["bin_lower"] = std::vector<double>(psd.edges.begin(), psd.edges.end() - 1);
+    j["bin_upper"] = std::vector<double>(psd.edges.begin() + 1, psd.edges.end());
+    j["voxels"] = psd.voxels;
+    j["pore_volume_fraction"] = psd.volume_fraction;
+    record["local_thickness"] = j;
+    progress.note("local thickness: mean " + fixed(psd.mean, 4) + ", median " +
+                  fixed(psd.median, 4) + ", max " + fixed(psd.max, 4) + " " + spacing.unit);
+  } else {
+    record["local_thickness"] = nullptr;
+  }
+
+  nlohmann::json outputs = {"analysis.json", "porosity_profile.png"};
+  if (have_psd) outputs.push_back("pore_size_distribution.png");
+  record["outputs"] = outputs;
+  record["warnings"] = progress.warnings();
+
+  const fs::path out(a.out);
+  progress.stage("write " + a.out, 0, [&] {
+    voxel::StagedOutputs staged = voxel::StagedOutputs::in_directory(out);
+    {
+      voxel::Plot plot;
+      plot.title = "Porosity profile along " + a.profile_axis;
+      plot.x_label = a.profile_axis + " (" + spacing.unit + ")";
+      plot.y_label = "porosity";
+      plot.x = record["profiles"][a.profile_axis]["position"].get<std::vector<double>>();
+      plot.y = stats.porosity_profile(profile_axis);
+      voxel::write_plot_png(plot, staged.stage("porosity_profile.png"),
+                            (out / "porosity_profile.png").string());
+    }
+    if (have_psd) {
+      voxel::Plot plot;
+      plot.title = "Pore size distribution (local thickness)";
+      plot.x_label = "local thickness (" + spacing.unit + ")";
+      plot.y_label = "pore volume fraction";
+      plot.style = voxel::PlotStyle::kBars;
+      plot.x.assign(psd.edges.begin(), psd.edges.end() - 1);
+      plot.y = psd.volume_fraction;
+      plot.bar_width = psd.edges.size() > 1 ? psd.edges[1] - psd.edges[0] : 1.0;
+      voxel::write_plot_png(plot, staged.stage("pore_size_distribution.png"),
+                            (out / "pore_size_distribution.png").string());
+    }
+    write_json(staged.stage("analysis.json"), record, (out / "analysis.json").string());
+    staged.commit();
+  });
+  return 0;
+}
+
+}  // namespace
+
+Command add_analyze_command(CLI::App& rockprep) {
+  auto args = std::make_shared<AnalyzeArgs>();
+  CLI::App* app = rockprep.add_subcommand(
+      "analyze",
+      "Pore analysis of a phase-label volume: porosity, specific surface area, connected "
+      "clusters and percolating porosity (6- and 26-connectivity), largest isolated pores, "
+      "local-thickness pore-size distribution, porosity profiles; writes DIR/analysis.json, "
+      "DIR/pore_size_distribution.png and DIR/porosity_profile.png");
+  args->input.add_to(app);
+  app->add_option("--connectivity", args->connectivity,
+                  "Pore clusters with 6 (faces), 26 (faces, edges, corners) or both (default)")
+      ->check(CLI::IsMember({"6", "26", "both"}));
+  app->add_option("--largest", args->largest,
+                  "How many of the largest isolated pores to list (default 10)")
+      ->check(CLI::Range(0, 1000000));
+  app->add_option("--profile-axis", args->profile_axis,
+                  "Axis of the plotted porosity profile: z (default), y or x")
+      ->check(CLI::IsMember({"z", "y", "x"}));
+  app->add_flag("--no-thickness", args->no_thickness,
+                "Skip the local thickness (it needs 4 bytes per voxel and the most time)");
+  app->add_option("--psd-bins", args->psd_bins,
+                  "Bins of the size distribution (default: one per smallest voxel spacing, at "
+                  "most 100)")
+      ->check(CLI::Range(1, 100000));
+  app->add_option("--out", args->out, "Output folder")->required();
+  app->add_flag("--quiet", args->quiet, "No progress lines");
+  return {app, [args] { return run_analyze(*args); }};
+}
+
+}  // namespace mesorock::pipeline::prep
