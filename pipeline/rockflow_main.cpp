@@ -81,6 +81,10 @@ int main(int argc, char** argv) {
     bench->add_flag("--json", bench_json, "print JSON");
     bool profile = false;
     bench->add_flag("--profile", profile, "CUDA: also time each pass (kick, sort, density, force)");
+    int cells_per_rc = ms::SimulationOptions{}.cells_per_cutoff;
+    bench->add_option("--cells-per-rc", cells_per_rc, "cell-list cells per cutoff (1-4)")
+        ->check(CLI::Range(1, 4))
+        ->capture_default_str();
 
     try {
       app.parse(argc, argv);
@@ -130,6 +134,7 @@ int main(int argc, char** argv) {
       bo.precision = precision == "double" ? ms::Precision::Double : ms::Precision::Single;
       bo.sim = so;
       bo.sim.profile = profile;
+      bo.sim.cells_per_cutoff = cells_per_rc;
       const mp::BenchResult r = mp::run_bench(bo);
       mp::BenchResult cpu;
       if (compare_cpu) {

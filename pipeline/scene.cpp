@@ -550,6 +550,56 @@ std::vector<std::string> type_names_at(const Context& c, const Scene& s, Table& 
   return names;
 }
 
+// [walls]: the boundary model of Li et al. 2018 for frozen wall particles (docs/walls.md).
+void read_walls(const Context& c, Table& top, Scene& s) {
+  const toml::table* tbl = top.table("walls");
+  if (!tbl) return;
+  Table t(c, *tbl, "walls",
+          {"model", "types", "penetration_threshold", "reflection", "slip_factor",
+           "max_dissipation_factor"});
+  sim::WallModelSpec& w = s.model.wall_model;
+  const std::string model = string_at(c, t.require("model"), "walls.model");
+  if (model == "none") {
+    t.finish();
+    return;
+  }
+  if (model != "li2018")
+    fail(c, "walls.model", "must be \"li2018\" or \"none\" (got " + in_quotes(model) + ")");
+  w.enabled = true;
+  for (const std::string& name : type_names_at(c, s, t)) {
+    const int type = s.model.type_index(name);
+    if (!s.model.types[static_cast<size_t>(type)].frozen)
+      fail(c, "walls.types", "type " + in_quotes(name) + " is not frozen (walls must be frozen)");
+    w.wall_types |= 1u << type;
+  }
+  if (s.model.wall_mask() == 0)
+    fail(c, "walls.types", "no frozen type to act as wall (give types or freeze a type)");
+  if (auto phi = t.number("penetration_threshold")) {
+    if (!(*phi > 0 && *phi < 1))
+      fail(c, "walls.penetration_threshold", "must be in (0, 1) (got " + num(*phi) + ")");
+    w.penetration_threshold = *phi;
+  }
+  if (const toml::node* n = t.get("reflection"))
+    w.reflection = choice_at<sim::WallReflection>(
+        c, *n, "walls.reflection",
+        {{"specular", sim::WallReflection::Specular},
+         {"bounce-back", sim::WallReflection::BounceBack}});
+  if (auto f = t.number("slip_factor")) {
+    if (!(*f >= 0 && *f <= 1))
+      fail(c, "walls.slip_factor", "must be in [0, 1], 1 = no slip (got " + num(*f) + ")");
+    w.slip_factor = *f;
+  }
+  if (auto k = t.number("max_dissipation_factor")) {
+    if (!(*k >= 1)) fail(c, "walls.max_dissipation_factor", "must be >= 1 (got " + num(*k) + ")");
+    w.max_dissipation_factor = *k;
+  }
+  if (!s.model.thermostat)
+    fail(c, "walls.model", "needs model.thermostat = true (no slip is imposed by the dissipation)");
+  if (s.model.body_force_profile == sim::BodyForceProfile::Reversed)
+    fail(c, "walls.model", "is not available with model.body_force_profile = \"reversed\"");
+  t.finish();
+}
+
 void read_output(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("output");
   if (!tbl) return;
@@ -689,8 +739,8 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   s.path = path_for_messages;
   s.source_text = text;
   Table top(c, root, "",
-            {"name", "seed", "precision", "box", "model", "types", "pairs", "init", "run", "output",
-             "units"});
+            {"name", "seed", "precision", "box", "model", "types", "pairs", "walls", "init", "run",
+             "output", "units"});
   const std::string stem = path_for_messages.stem().string();
   s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
   if (s.name.empty()) fail(c, "name", "must not be empty");
@@ -706,6 +756,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   read_model(c, top, s);
   read_types(c, top, s);
   read_pairs(c, top, s);
+  read_walls(c, top, s);
   read_init(c, top, s);
   read_stages(c, top, s);
   read_output(c, top, s);

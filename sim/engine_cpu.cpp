@@ -3,6 +3,8 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <type_traits>
+#include <vector>
 
 #include "sim/kernels.h"
 #include "sim/terms.h"
@@ -100,9 +102,9 @@ class CpuEngine final : public Engine<Real> {
       VirialSums local;
 #pragma omp for schedule(static)
       for (int k = 0; k < n; ++k) {
-        const auto w =
-            virial_of_particle<Real, typename Terms::conservative, typename Terms::thermostat>(v,
-                                                                                               k);
+        const auto w = virial_of_particle<Real, typename Terms::conservative,
+                                          typename Terms::thermostat, typename Terms::wall_model>(v,
+                                                                                                  k);
         for (int c = 0; c < 6; ++c) {
           local.conservative[c] += w.conservative[c];
           local.dissipative[c] += w.dissipative[c];
@@ -148,22 +150,79 @@ class CpuEngine final : public Engine<Real> {
     int saved;
   };
 
-  // Cell list, density (only with a many-body term), forces; for step s_->step.
+  // Cell list, density (only with a many-body term), the wall model's phi and corrector (only
+  // with it), forces; for step s_->step.
   void compute_forces() {
     ThreadScope scope(threads_);
     sorter_.sort(*s_);
+    using C = typename Terms::conservative;
+    using W = typename Terms::wall_model;
+    local_sums();
+    if constexpr (W::enabled) {
+      if (correct_penetrations() > 0) {
+        // Corrected particles moved: sort and sum again so the cell list and rho stay exact.
+        sorter_.sort(*s_);
+        local_sums();
+      }
+    }
     const StepView<Real> v = s_->view();
     const int n = v.n;
-    using C = typename Terms::conservative;
-    if constexpr (C::needs_density) {
-#pragma omp parallel for schedule(static)
-      for (int k = 0; k < n; ++k) density_of_particle<Real, typename C::density_kernel>(v, k);
-    }
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < n; ++k)
-      force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force>(v, k);
+      force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force, W>(
+          v, k, NeighbourStash{});
   }
 
+  void local_sums() {
+    using C = typename Terms::conservative;
+    const StepView<Real> v = s_->view();
+    const int n = v.n;
+    if constexpr (Terms::wall_model::enabled) {
+      using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
+#pragma omp parallel for schedule(static)
+      for (int k = 0; k < n; ++k) density_and_bvf_of_particle<Real, K>(v, k);
+    } else if constexpr (C::needs_density) {
+#pragma omp parallel for schedule(static)
+      for (int k = 0; k < n; ++k)
+        density_of_particle<Real, typename C::density_kernel>(v, k);
+    }
+  }
+
+  // Finds every penetrating particle against the same positions, then applies the corrections.
+  int correct_penetrations() {
+    const StepView<Real> v = s_->view();
+    const int n = v.n;
+    corrections_.clear();
+#pragma omp parallel
+    {
+      std::vector<Correction> mine;
+#pragma omp for schedule(static) nowait
+      for (int k = 0; k < n; ++k) {
+        Correction c;
+        if (penetration_correction(v, k, c.dv)) {
+          c.index = k;
+          mine.push_back(c);
+        }
+      }
+#pragma omp critical
+      corrections_.insert(corrections_.end(), mine.begin(), mine.end());
+    }
+    for (const Correction& c : corrections_)
+      apply_penetration_correction<Real, Terms::thermostat::enabled>(v, c.index, c.dv);
+    corrected_ += corrections_.size();
+    return static_cast<int>(corrections_.size());
+  }
+
+ public:
+  std::uint64_t wall_corrections() const override { return corrected_; }
+
+ private:
+  struct Correction {
+    int index = 0;
+    Real dv[3] = {0, 0, 0};
+  };
+  std::vector<Correction> corrections_;
+  std::uint64_t corrected_ = 0;
   int threads_;
   HostState<Real>* s_ = nullptr;
   CellSorter<Real> sorter_;

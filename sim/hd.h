@@ -3,9 +3,11 @@
 #if defined(__CUDACC__)
 #define MESO_HD __host__ __device__
 #define MESO_INLINE __forceinline__
+#define MESO_UNROLL _Pragma("unroll")
 #else
 #define MESO_HD
 #define MESO_INLINE inline
+#define MESO_UNROLL
 #endif
 
 #include <cmath>

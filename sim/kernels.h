@@ -7,10 +7,13 @@
 // Algorithm 1):
 //   kick_drift:  v <- v + dt/2 f;  v~ <- v_old + lambda dt f;  x <- x + dt v;  boundaries
 //   density:     rho_i = sum_j w(r_ij)            (only with a many-body term)
+//                and the boundary volume fraction phi_i (only with the wall model)
+//   correction:  fluid particles that entered a wall are put back (only with the wall model)
 //   forces:      f_i = sum_j F_ij(x, v~, rho) + g_type
 //   kick:        v <- v + dt/2 f
 // lambda = 0.5 makes v~ the half-step velocity: plain velocity Verlet.
 #include <cstdint>
+#include <type_traits>
 
 #include "sim/box.h"
 #include "sim/cell_grid.h"
@@ -18,6 +21,7 @@
 #include "sim/observables.h"
 #include "sim/pair_terms.h"
 #include "sim/rng.h"
+#include "sim/wall_model.h"
 
 namespace mesorock::sim {
 
@@ -31,6 +35,7 @@ struct StepView {
   Real *vex = nullptr, *vey = nullptr, *vez = nullptr;
   Real *fx = nullptr, *fy = nullptr, *fz = nullptr;
   Real* rho = nullptr;
+  Real* bvf = nullptr;  // boundary volume fraction phi (wall model only; 0 for wall particles)
   const std::int32_t* type = nullptr;
   const std::int64_t* id = nullptr;
 
@@ -46,6 +51,7 @@ struct StepView {
   int body_force_axis = 2;           // profile axis of a position-dependent body force
   Real body_force_midplane = 0;      // its sign changes here (ReversedBodyForce)
   std::uint32_t frozen_mask = 0;     // bit t set: type t never moves
+  WallModelView<Real> walls;         // read only by the wall-model pass variants
 
   Real rd = Real(0.75);
   Real dt = Real(0.01);
@@ -57,42 +63,113 @@ struct StepView {
   MESO_HD bool frozen(int i) const { return (frozen_mask >> type[i]) & 1u; }
 };
 
-// Calls visit(j, dx, dy, dz, r2) for every particle j != i within the cutoff rc = 1.
-// Periodic images come from per-cell shifts (no per-pair branch) except on axes with fewer than 3
-// cells, where minimum_image decides per pair. Either way dx_ij = -dx_ji exactly.
+// Calls visit(j, dx, dy, dz, r2) for every particle j in the cell stencil around particle i's
+// cell (i itself included), in storage order within each row of cells along x. Periodic images
+// come from per-cell shifts (no per-pair branch) except on axes too short for the stencil, where
+// minimum_image decides per pair. Either way dx_ij = -dx_ji exactly.
 template <class Real, class Visit>
-MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visit&& visit) {
+MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visit&& visit) {
   const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
-  const int cx = v.grid.coordinate(xi, v.box.lo[0], 0);
-  const int cy = v.grid.coordinate(yi, v.box.lo[1], 1);
-  const int cz = v.grid.coordinate(zi, v.box.lo[2], 2);
-  int nx[3], ny[3], nz[3];
-  Real sx[3], sy[3], sz[3];
-  bool mx, my, mz;
-  const int kx = v.grid.axis_neighbours(cx, 0, v.box.periodic[0], v.box.length[0], nx, sx, mx);
-  const int ky = v.grid.axis_neighbours(cy, 1, v.box.periodic[1], v.box.length[1], ny, sy, my);
-  const int kz = v.grid.axis_neighbours(cz, 2, v.box.periodic[2], v.box.length[2], nz, sz, mz);
-  for (int c = 0; c < kz; ++c) {
-    for (int b = 0; b < ky; ++b) {
-      // Cells along x are contiguous in the cell index, and so are their particles: one run
-      // per (y, z) row unless x wraps around.
-      for (int a = 0; a < kx; ++a) {
-        const int cell = v.grid.index(nx[a], ny[b], nz[c]);
-        const int end = v.cell_start[cell + 1];
-        for (int j = v.cell_start[cell]; j < end; ++j) {
-          if (j == i) continue;
-          Real dx = (xi - v.x[j]) - sx[a];
-          Real dy = (yi - v.y[j]) - sy[b];
-          Real dz = (zi - v.z[j]) - sz[c];
-          if (mx) dx = v.box.minimum_image(dx, 0);
-          if (my) dy = v.box.minimum_image(dy, 1);
-          if (mz) dz = v.box.minimum_image(dz, 2);
-          const Real r2 = dx * dx + dy * dy + dz * dz;
-          if (r2 < Real(1)) visit(j, dx, dy, dz, r2);
+  const CellGrid<Real>& g = v.grid;
+  const int cx = g.coordinate(xi, v.box.lo[0], 0);
+  const int cy = g.coordinate(yi, v.box.lo[1], 1);
+  const int cz = g.coordinate(zi, v.box.lo[2], 2);
+  const auto rx = g.axis_range(cx, 0, v.box.periodic[0]);
+  const auto ry = g.axis_range(cy, 1, v.box.periodic[1]);
+  const auto rz = g.axis_range(cz, 2, v.box.periodic[2]);
+  const int nx = g.dims[0];
+  // The x stencil splits into at most three runs of consecutive cells: below 0 (wrapped, shift
+  // -L), inside, above n - 1 (wrapped, shift +L). Each run's particles are contiguous.
+  const int x_first[3] = {rx.begin + nx, rx.begin < 0 ? 0 : rx.begin, 0};
+  const int x_last[3] = {nx, rx.end > nx ? nx : rx.end, rx.end - nx};
+  const Real x_shift[3] = {-v.box.length[0], Real(0), v.box.length[0]};
+  for (int kz = rz.begin; kz < rz.end; ++kz) {
+    Real sz;
+    const int wz = g.wrap(kz, 2, v.box.length[2], sz);
+    for (int ky = ry.begin; ky < ry.end; ++ky) {
+      Real sy;
+      const int wy = g.wrap(ky, 1, v.box.length[1], sy);
+      const int row = g.index(0, wy, wz);
+      MESO_UNROLL
+      for (int run = 0; run < 3; ++run) {
+        if (x_first[run] >= x_last[run]) continue;
+        const int end = v.cell_start[row + x_last[run]];
+        const Real sx = x_shift[run];
+        for (int j = v.cell_start[row + x_first[run]]; j < end; ++j) {
+          Real dx = (xi - v.x[j]) - sx;
+          Real dy = (yi - v.y[j]) - sy;
+          Real dz = (zi - v.z[j]) - sz;
+          if (rx.all) dx = v.box.minimum_image(dx, 0);
+          if (ry.all) dy = v.box.minimum_image(dy, 1);
+          if (rz.all) dz = v.box.minimum_image(dz, 2);
+          visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
         }
       }
     }
   }
+}
+
+// Calls visit(j, dx, dy, dz, r2) for every particle j != i within the cutoff rc = 1.
+template <class Real, class Visit>
+MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visit&& visit) {
+  for_each_candidate(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
+    if (r2 < Real(1) && j != i) visit(j, dx, dy, dz, r2);
+  });
+}
+
+// A per-thread list of the neighbour indices a scan found, visited after the scan. Why: on the
+// GPU a warp executes the pair body whenever any of its 32 lanes has a neighbour, so a scan that
+// calls the body in place pays for about 190 candidates per particle instead of its 29
+// neighbours. Collecting first and visiting afterwards runs the body once per neighbour with the
+// lanes in step. The slots live in shared memory (slot k of a thread at slot[k * stride]). The
+// visiting order is the scan order, so the sums, and hence the results, are the same as those of
+// the CPU, which visits in place and passes an empty stash. (MESOROCK_NO_NEIGHBOUR_STASH builds
+// the GPU without it, for the side-by-side benchmark in docs/benchmarks.md.)
+struct NeighbourStash {
+  static constexpr int kCapacity = 48;  // about 1.6x the neighbours of a liquid at rho = 7
+  int* slot = nullptr;
+  int stride = 1;
+  MESO_HD MESO_INLINE int& operator[](int k) const { return slot[k * stride]; }
+};
+
+// Calls visit(j, dx, dy, dz, r2) for every particle j != i with r2 < cutoff2 <= 1, in the order
+// for_each_neighbour visits them, through the stash: the scan only stores indices; separations are
+// recomputed for the stored ones. The recomputation is the minimum image on periodic axes, which
+// gives the same bits as the cell shifts of the scan: a neighbour within rc of an axis with 3 or
+// more cells (edge >= 3) differs from its raw separation by exactly 0 or +-L, and the raw
+// separation is then below L/2 or beyond it.
+template <class Real, class Visit>
+MESO_HD MESO_INLINE void for_each_neighbour_stashed(const StepView<Real>& v, int i,
+                                                    const NeighbourStash& stash, Real cutoff2,
+                                                    Visit&& visit) {
+#if !defined(__CUDA_ARCH__) || defined(MESOROCK_NO_NEIGHBOUR_STASH)
+  // The CPU visits in place: its branch predictor copes with the scan, and the stash measured
+  // slower there (bulk, 200,000 particles, one thread: 0.318 MPS/s with it, 0.377 without).
+  (void)stash;
+  for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
+    if (r2 < cutoff2) visit(j, dx, dy, dz, r2);
+  });
+#else
+  const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
+  int count = 0;
+  auto flush = [&]() {
+    for (int k = 0; k < count; ++k) {
+      const int j = stash[k];
+      const Real dx = v.box.minimum_image(xi - v.x[j], 0);
+      const Real dy = v.box.minimum_image(yi - v.y[j], 1);
+      const Real dz = v.box.minimum_image(zi - v.z[j], 2);
+      visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+    }
+    count = 0;
+  };
+  for_each_candidate(v, i, [&](int j, Real, Real, Real, Real r2) {
+    // Store unconditionally, keep it only when it is a neighbour: no branch in the scan.
+    stash[count] = j;
+    count += (r2 < cutoff2) & (j != i);
+    if (count == NeighbourStash::kCapacity) flush();
+  });
+  flush();
+#endif
 }
 
 // Below this separation the pair direction is undefined: coincident particles exert no force on
@@ -107,6 +184,8 @@ MESO_HD MESO_INLINE constexpr Real coincident_r2() {
 // many-body force on the fluid).
 template <class Real, class DensityKernel>
 MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
+  // In place, not stashed: this body is cheap, and the stash measured slower here (H200, porous
+  // 16 M: 7.8 ms per pass with it, 6.7 without; docs/benchmarks.md).
   Real rho = 0;
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
@@ -116,6 +195,68 @@ MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
   v.rho[i] = rho;
 }
 
+// Density (when DensityKernel is not void) and the boundary volume fraction of the wall model
+// (sim/wall_model.h) in one neighbour loop:
+//   phi_i = sum_{j in wall} W(r_ij) / sum_{j != i} W(r_ij),  W = (1 - r)^2,
+// for particles that are not wall themselves (phi = 0 for wall particles).
+template <class Real, class DensityKernel>
+MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, int i) {
+  constexpr bool kDensity = !std::is_void<DensityKernel>::value;
+  Real rho = 0, wall = 0, all = 0;
+  const Real rd = v.rd;
+  const Real rd2 = rd * rd;
+  const bool fluid = !v.walls.is_wall(v.type[i]);
+  for_each_neighbour(v, i, [&](int j, Real, Real, Real, Real r2) {
+    const Real r = real_sqrt(r2);
+    if constexpr (kDensity) {
+      if (r2 < rd2) rho += DensityKernel::weight(r, rd);
+    }
+    const Real w = bvf_weight(r);
+    all += w;
+    if (v.walls.is_wall(v.type[j])) wall += w;
+  });
+  if constexpr (kDensity) v.rho[i] = rho;
+  v.bvf[i] = fluid && all > Real(0) ? wall / all : Real(0);
+}
+
+// The corrector of the wall model for particle i after the drift (the predictor): a mobile
+// non-wall particle with phi_i > phi_c moving into the wall (v . n < 0, n the wall-side normal
+// sum_{j in wall} W(r_ij) e_ij) gets its normal velocity reflected (all of it with bounce-back),
+// v~ too, and its drift redone with the new velocity: x += dt (v' - v). Writes the velocity
+// change to dv and returns true when the particle must be corrected; changes nothing itself, so
+// that every particle's decision sees the same positions (the caller applies the changes).
+template <class Real>
+MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real dv[3]) {
+  if (v.frozen(i) || v.walls.is_wall(v.type[i]) || !(v.bvf[i] > v.walls.phi_c)) return false;
+  Real nx = 0, ny = 0, nz = 0;
+  for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
+    if (!v.walls.is_wall(v.type[j]) || r2 < coincident_r2<Real>()) return;
+    const Real r = real_sqrt(r2);
+    const Real w = bvf_weight(r) / r;
+    nx += w * dx;
+    ny += w * dy;
+    nz += w * dz;
+  });
+  const Real norm2 = nx * nx + ny * ny + nz * nz;
+  if (!(norm2 > Real(0))) return false;
+  const Real inv = Real(1) / real_sqrt(norm2);
+  nx *= inv;
+  ny *= inv;
+  nz *= inv;
+  const Real vn = v.vx[i] * nx + v.vy[i] * ny + v.vz[i] * nz;
+  if (!(vn < Real(0))) return false;
+  if (v.walls.bounce_back) {
+    dv[0] = -2 * v.vx[i];
+    dv[1] = -2 * v.vy[i];
+    dv[2] = -2 * v.vz[i];
+  } else {
+    dv[0] = -2 * vn * nx;
+    dv[1] = -2 * vn * ny;
+    dv[2] = -2 * vn * nz;
+  }
+  return true;
+}
+
 // Per-pair force split into its parts, for the force pass and the stress observable alike.
 template <class Real>
 struct PairForce {
@@ -123,7 +264,10 @@ struct PairForce {
   Real r = 0;
 };
 
-template <class Real, class Conservative, class Thermostat>
+// With the wall model, a fluid-wall pair's dissipation is scaled by the no-slip factor of the
+// fluid particle's phi (gamma_eff = gamma kappa, sigma_eff = sigma sqrt(kappa)), whichever side
+// the pair is evaluated from, so F_ij = -F_ji still holds.
+template <class Real, class Conservative, class Thermostat, class WallModel = NoWallModel>
 MESO_HD MESO_INLINE PairForce<Real> pair_force(const StepView<Real>& v, int i, int j, Real dx,
                                                Real dy, Real dz, Real r2) {
   PairForce<Real> f;
@@ -144,21 +288,37 @@ MESO_HD MESO_INLINE PairForce<Real> pair_force(const StepView<Real>& v, int i, i
     const Real e_dot_v =
         (dx * (v.vex[i] - v.vex[j]) + dy * (v.vey[i] - v.vey[j]) + dz * (v.vez[i] - v.vez[j])) *
         inv_r;
-    f.dissipative = Thermostat::dissipative(r, e_dot_v, p);
     const Real xi = pair_random<Real>(v.seed, v.step, static_cast<std::uint64_t>(v.id[i]),
                                       static_cast<std::uint64_t>(v.id[j]));
+    if constexpr (WallModel::enabled) {
+      const bool wall_i = v.walls.is_wall(v.type[i]);
+      if (wall_i != v.walls.is_wall(v.type[j])) {
+        const Real kappa = v.walls.dissipation_factor(v.bvf[wall_i ? j : i]);
+        PairParams<Real> q = p;
+        q.gamma *= kappa;
+        q.sigma *= real_sqrt(kappa);
+        f.dissipative = Thermostat::dissipative(r, e_dot_v, q);
+        f.random = Thermostat::random(r, xi, v.inv_sqrt_dt, q);
+        return f;
+      }
+    }
+    f.dissipative = Thermostat::dissipative(r, e_dot_v, p);
     f.random = Thermostat::random(r, xi, v.inv_sqrt_dt, p);
   }
   return f;
 }
 
 // Force pass for one particle: f_i = sum_j F_ij + g_type. Frozen particles get f = 0.
-template <class Real, class Conservative, class Thermostat, class BodyForce>
-MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i) {
+template <class Real, class Conservative, class Thermostat, class BodyForce,
+          class WallModel = NoWallModel>
+MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i,
+                                           const NeighbourStash& stash) {
   Real fx = 0, fy = 0, fz = 0;
   if (!v.frozen(i)) {
-    for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
-      const PairForce<Real> f = pair_force<Real, Conservative, Thermostat>(v, i, j, dx, dy, dz, r2);
+    for_each_neighbour_stashed(v, i, stash, Real(1), [&](int j, Real dx, Real dy, Real dz,
+                                                          Real r2) {
+      const PairForce<Real> f =
+          pair_force<Real, Conservative, Thermostat, WallModel>(v, i, j, dx, dy, dz, r2);
       if (f.r == Real(0)) return;
       const Real s = (f.conservative + f.dissipative + f.random) / f.r;
       fx += s * dx;
@@ -246,6 +406,41 @@ MESO_HD MESO_INLINE void kick(const StepView<Real>& v, int i) {
   v.vz[i] += half * v.fz[i];
 }
 
+// Applies a correction found by penetration_correction: v += dv, the same reflection of v~, and
+// x += dt dv, then the box faces.
+template <class Real, bool kVelocityEstimate>
+MESO_HD MESO_INLINE void apply_penetration_correction(const StepView<Real>& v, int i,
+                                                      const Real dv[3]) {
+  const Real vx0 = v.vx[i], vy0 = v.vy[i], vz0 = v.vz[i];
+  v.vx[i] += dv[0];
+  v.vy[i] += dv[1];
+  v.vz[i] += dv[2];
+  if constexpr (kVelocityEstimate) {
+    if (v.walls.bounce_back) {
+      v.vex[i] = -v.vex[i];
+      v.vey[i] = -v.vey[i];
+      v.vez[i] = -v.vez[i];
+    } else {
+      // dv = -2 (v . n) n: recover n from dv and v, and reflect v~ about the same plane.
+      const Real vn = -Real(0.5) * (dv[0] * vx0 + dv[1] * vy0 + dv[2] * vz0);  // = (v.n)^2
+      if (vn > Real(0)) {
+        const Real s = real_sqrt(vn);  // |v . n|
+        const Real nx = dv[0] / (2 * s), ny = dv[1] / (2 * s), nz = dv[2] / (2 * s);
+        const Real en = v.vex[i] * nx + v.vey[i] * ny + v.vez[i] * nz;
+        v.vex[i] -= 2 * en * nx;
+        v.vey[i] -= 2 * en * ny;
+        v.vez[i] -= 2 * en * nz;
+      }
+    }
+  }
+  v.x[i] += v.dt * dv[0];
+  v.y[i] += v.dt * dv[1];
+  v.z[i] += v.dt * dv[2];
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.x, v.vx, v.vex, 0);
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Stress observable: per-particle half of the pair virial, split into conservative, dissipative
 // and random parts: W_i^{ab} = 1/2 sum_j r_ij^a F_ij^b. Summed over i and divided by the volume
@@ -257,13 +452,14 @@ struct ParticleVirial {
   Real random[6] = {0, 0, 0, 0, 0, 0};
 };
 
-template <class Real, class Conservative, class Thermostat>
+template <class Real, class Conservative, class Thermostat, class WallModel = NoWallModel>
 MESO_HD MESO_INLINE ParticleVirial<Real> virial_of_particle(const StepView<Real>& v, int i) {
   ParticleVirial<Real> w;
   for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
     // Frozen-frozen pairs exert no force that matters (neither moves) and are left out.
     if (v.frozen(i) && v.frozen(j)) return;
-    const PairForce<Real> f = pair_force<Real, Conservative, Thermostat>(v, i, j, dx, dy, dz, r2);
+    const PairForce<Real> f =
+        pair_force<Real, Conservative, Thermostat, WallModel>(v, i, j, dx, dy, dz, r2);
     if (f.r == Real(0)) return;
     // r_ij^a F_ij^b = f d^a d^b / r with F_ij = f e and e = d / r; half to each particle.
     const Real rr[6] = {dx * dx, dy * dy, dz * dz, dx * dy, dx * dz, dy * dz};

@@ -40,6 +40,20 @@ struct PairSpec {
   double gamma = 0;  // dissipation (thermostat only)
 };
 
+// The boundary model of Li et al. 2018 (sim/wall_model.h, docs/walls.md). Off unless enabled.
+enum class WallReflection { Specular, BounceBack };
+inline const char* to_string(WallReflection r) {
+  return r == WallReflection::Specular ? "specular" : "bounce-back";
+}
+struct WallModelSpec {
+  bool enabled = false;
+  std::uint32_t wall_types = 0;        // bit t: type t is wall (must be frozen); 0 = every frozen type
+  double penetration_threshold = 0.5;  // phi_c
+  WallReflection reflection = WallReflection::Specular;
+  double slip_factor = 1.0;             // 1 = no slip; in [0, 1) partial slip
+  double max_dissipation_factor = 5.0;  // cap of kappa (stability of the explicit dissipation)
+};
+
 struct Model {
   std::vector<TypeSpec> types;
   std::vector<PairSpec> pairs;  // ntypes x ntypes, symmetric
@@ -53,6 +67,16 @@ struct Model {
   int body_force_axis = 2;  // Reversed only: the axis across which the force changes sign
   std::uint64_t seed = 1;
   Precision precision = Precision::Double;
+  WallModelSpec wall_model;
+
+  // The wall types of the wall model: the given ones, or every frozen type.
+  std::uint32_t wall_mask() const {
+    if (wall_model.wall_types != 0) return wall_model.wall_types;
+    std::uint32_t m = 0;
+    for (int t = 0; t < ntypes(); ++t)
+      if (types[static_cast<size_t>(t)].frozen) m |= 1u << t;
+    return m;
+  }
 
   int ntypes() const { return static_cast<int>(types.size()); }
   PairSpec& pair(int a, int b) { return pairs[static_cast<size_t>(a * ntypes() + b)]; }

@@ -7,6 +7,7 @@
 #include "sim/engine_cpu.h"
 #include "sim/state.h"
 #include "sim/terms.h"
+#include "sim/wall_model.h"
 #if defined(MESOROCK_HAVE_CUDA)
 #include "sim/cuda/engine_cuda.h"
 #endif
@@ -14,6 +15,10 @@
 namespace mesorock::sim {
 
 namespace {
+
+// Entries of the wall model's kappa(phi) table over phi in [0, 1/2] (linear interpolation between
+// them; kappa varies smoothly except near phi = 1/2, where the cap takes over).
+constexpr int kKappaEntries = 256;
 
 void check_finite(double v, const std::string& what) {
   if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
@@ -58,6 +63,27 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
     if (box.periodic[a] && len < 2.0)
       throw ConfigError("a periodic box edge must be at least 2 rc long");
   }
+  if (m.wall_model.enabled) {
+    const WallModelSpec& w = m.wall_model;
+    check_finite(w.penetration_threshold, "wall model penetration threshold");
+    if (!(w.penetration_threshold > 0 && w.penetration_threshold < 1))
+      throw ConfigError("wall model penetration threshold must be in (0, 1)");
+    check_finite(w.slip_factor, "wall model slip factor");
+    if (!(w.slip_factor >= 0 && w.slip_factor <= 1))
+      throw ConfigError("wall model slip factor must be in [0, 1] (1 = no slip)");
+    check_finite(w.max_dissipation_factor, "wall model max dissipation factor");
+    if (!(w.max_dissipation_factor >= 1))
+      throw ConfigError("wall model max dissipation factor must be at least 1");
+    const std::uint32_t mask = m.wall_mask();
+    if (mask == 0)
+      throw ConfigError("the wall model needs wall particles: no type is frozen or named as wall");
+    for (int t = 0; t < m.ntypes(); ++t)
+      if (((mask >> t) & 1u) && !m.types[t].frozen)
+        throw ConfigError("wall type " + m.types[t].name +
+                          " is not frozen (the wall model supports frozen walls only)");
+    if (!m.thermostat)
+      throw ConfigError("the wall model needs the thermostat (its no-slip condition is a dissipation)");
+  }
   const size_t n = p.size();
   if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
       p.vz.size() != n || p.type.size() != n || p.id.size() != n)
@@ -92,6 +118,9 @@ class SimulationImpl final : public Simulation {
   SimulationImpl(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
                  const SimulationOptions& opt)
       : model_(model), box_(box), dt_(dt) {
+    if (opt.cells_per_cutoff < 1 || opt.cells_per_cutoff > 4)
+      throw ConfigError("cells per cutoff must be 1 to 4 (got " +
+                        std::to_string(opt.cells_per_cutoff) + ")");
     HostState<Real>& s = state_;
     const int nt = model.ntypes();
     s.ntypes = nt;
@@ -117,7 +146,19 @@ class SimulationImpl final : public Simulation {
       s.box.length[a] = static_cast<Real>(box.length(a));
       s.box.periodic[a] = box.periodic[a];
     }
-    s.grid = CellGrid<Real>::make(s.box, Real(1));
+    s.grid = CellGrid<Real>::make(s.box, Real(1), opt.cells_per_cutoff);
+    if (model.wall_model.enabled) {
+      const WallModelSpec& w = model.wall_model;
+      s.walls.wall_mask = model.wall_mask();
+      s.walls.phi_c = static_cast<Real>(w.penetration_threshold);
+      s.walls.bounce_back = w.reflection == WallReflection::BounceBack;
+      s.walls.slip_factor = static_cast<Real>(w.slip_factor);
+      s.walls.phi_max = Real(0.5);
+      const std::vector<double> table = tabulate_kappa(kKappaEntries, 0.5, w.max_dissipation_factor);
+      s.walls.entries = kKappaEntries;
+      s.kappa.assign(table.begin(), table.end());
+      s.bvf.assign(p.size(), Real(0));
+    }
     s.body_force_axis = model.body_force_axis;
     s.body_force_midplane =
         static_cast<Real>(0.5 * (box.lo[static_cast<size_t>(model.body_force_axis)] +
@@ -211,6 +252,16 @@ class SimulationImpl final : public Simulation {
   std::vector<double> densities() override {
     sync();
     return in_original_order(state_.rho);
+  }
+
+  std::vector<double> boundary_volume_fractions() override {
+    if (state_.bvf.empty()) return {};
+    sync();
+    return in_original_order(state_.bvf);
+  }
+
+  std::uint64_t wall_corrections() const override {
+    return engine_->wall_corrections();
   }
 
   std::array<std::vector<double>, 3> forces() override {

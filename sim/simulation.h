@@ -22,6 +22,10 @@ struct SimulationOptions {
   int threads = 0;       // CPU backend: OpenMP threads; <= 0 means OpenMP's default
   int device = 0;        // CUDA backend: device ordinal
   bool profile = false;  // CUDA backend: time each pass with events (synchronises every step)
+  // Cell-list resolution: cells of rc / cells_per_cutoff, scanned cells_per_cutoff deep. Changes
+  // speed and the order of force sums (so results at round-off), not the physics. 1 measured
+  // fastest on the GPU (docs/benchmarks.md); the CPU is indifferent.
+  int cells_per_cutoff = 1;
 };
 
 // Stress tensor parts in Voigt order xx yy zz xy xz yz; sigma = (kinetic + virial) / V, with the
@@ -60,6 +64,10 @@ class Simulation {
   // Copies of the current particle data (double precision), synced from the backend.
   virtual ParticleSet particles() = 0;
   virtual std::vector<double> densities() = 0;  // rho_i of the last force pass (0 without mDPD)
+  // The wall model's boundary volume fraction phi_i of the last force pass (empty without it).
+  virtual std::vector<double> boundary_volume_fractions() = 0;
+  // Fluid particles the wall model has put back out of a wall since the start (0 without it).
+  virtual std::uint64_t wall_corrections() const = 0;
   // Forces of the last force pass (pair terms + body force; zero on frozen particles).
   virtual std::array<std::vector<double>, 3> forces() = 0;
 

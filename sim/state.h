@@ -17,6 +17,7 @@ namespace mesorock::sim {
 template <class Real>
 struct HostState {
   std::vector<Real> x, y, z, vx, vy, vz, vex, vey, vez, fx, fy, fz, rho;
+  std::vector<Real> bvf;  // boundary volume fraction: empty without the wall model
   std::vector<std::int32_t> type;
   std::vector<std::int64_t> id;
   // Where each stored particle stood in the initial ParticleSet: engines keep particles sorted by
@@ -27,6 +28,8 @@ struct HostState {
   std::vector<PairParams<Real>> table;  // ntypes x ntypes
   std::vector<Real> body_force;         // ntypes x 3
   std::uint32_t frozen_mask = 0;
+  WallModelView<Real> walls;  // its kappa pointer is set by view() (host) or the engine (device)
+  std::vector<Real> kappa;    // the wall model's dissipation table
   int ntypes = 0;
   int body_force_axis = 2;
   Real body_force_midplane = 0;
@@ -48,6 +51,9 @@ struct HostState {
     v.vex = vex.data(), v.vey = vey.data(), v.vez = vez.data();
     v.fx = fx.data(), v.fy = fy.data(), v.fz = fz.data();
     v.rho = rho.data();
+    v.bvf = bvf.empty() ? nullptr : bvf.data();
+    v.walls = walls;
+    v.walls.kappa = kappa.empty() ? nullptr : kappa.data();
     v.type = type.data();
     v.id = id.data();
     v.cell_start = cell_start.data();
@@ -94,6 +100,8 @@ class Engine {
   // Per-bin sums (kBinFields per bin, see observables.h) over the current configuration.
   virtual void bin_sums(const BinGrid& grid, std::vector<double>& sums) = 0;
   virtual std::uint64_t step() const = 0;
+  // Fluid particles put back out of a wall by the wall model so far (0 without it).
+  virtual std::uint64_t wall_corrections() const { return 0; }
   // Bytes of device memory this engine holds (0 on the CPU).
   virtual std::size_t device_bytes() const { return 0; }
   // Per-pass times when profiling was asked for ("" otherwise).

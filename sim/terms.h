@@ -8,26 +8,32 @@
 #include "mesorock/errors.h"
 #include "sim/model.h"
 #include "sim/pair_terms.h"
+#include "sim/wall_model.h"
 
 namespace mesorock::sim {
 
-template <class C, class T, class B>
+template <class C, class T, class B, class W = NoWallModel>
 struct TermSet {
   using conservative = C;
   using thermostat = T;
   using body_force = B;
+  using wall_model = W;
 };
 
 template <class... Ts>
 struct TypeList {};
 
-// 3 conservative x 2 thermostat x 3 body force = 18 variants per precision.
+// Per conservative term: 2 thermostat x 3 body force without the wall model, and the wall model
+// where it makes sense (thermostat on: its no-slip condition is a dissipation; body force off or
+// uniform). 3 conservative x 8 = 24 variants per precision.
 template <class C>
 using TermSetsFor =
     TypeList<TermSet<C, NoThermostat, NoBodyForce>, TermSet<C, NoThermostat, PerTypeBodyForce>,
              TermSet<C, NoThermostat, ReversedBodyForce>, TermSet<C, DPDThermostat, NoBodyForce>,
              TermSet<C, DPDThermostat, PerTypeBodyForce>,
-             TermSet<C, DPDThermostat, ReversedBodyForce>>;
+             TermSet<C, DPDThermostat, ReversedBodyForce>,
+             TermSet<C, DPDThermostat, NoBodyForce, BoundaryVolumeFractionWalls>,
+             TermSet<C, DPDThermostat, PerTypeBodyForce, BoundaryVolumeFractionWalls>>;
 
 template <class... Lists>
 struct ConcatLists;
@@ -66,7 +72,8 @@ bool term_set_matches(const Model& m) {
   } else {
     body = m.has_body_force() && m.body_force_profile == BodyForceProfile::Reversed;
   }
-  return cons && Terms::thermostat::enabled == m.thermostat && body;
+  return cons && Terms::thermostat::enabled == m.thermostat && body &&
+         Terms::wall_model::enabled == m.wall_model.enabled;
 }
 
 namespace detail {
@@ -79,7 +86,11 @@ void dispatch(const Model& m, F& f) {
   if constexpr (sizeof...(Rest) > 0) {
     dispatch<F, Rest...>(m, f);
   } else {
-    throw ConfigError("no compiled pass for this combination of effects");
+    throw ConfigError(
+        m.wall_model.enabled
+            ? "no compiled pass for this combination of effects (the wall model needs the "
+              "thermostat, and a uniform body force or none)"
+            : "no compiled pass for this combination of effects");
   }
 }
 template <class F, class... Ts>
@@ -102,6 +113,7 @@ std::string term_set_name() {
     s += std::string("/") + Terms::conservative::density_kernel::name;
   s += std::string(" thermostat=") + Terms::thermostat::name;
   s += std::string(" body_force=") + Terms::body_force::name;
+  if constexpr (Terms::wall_model::enabled) s += std::string(" walls=") + Terms::wall_model::name;
   return s;
 }
 

@@ -50,6 +50,7 @@ BenchResult run_bench(const BenchOptions& o) {
   r.pass_name = sim->pass_name();
   r.particles = static_cast<std::int64_t>(sim->size());
   r.steps = o.steps;
+  r.cells_per_rc = o.sim.cells_per_cutoff;
   r.threads = o.sim.backend == sim::BackendKind::CPU
                   ? (o.sim.threads > 0 ? o.sim.threads : omp_get_max_threads())
                   : 0;
@@ -80,7 +81,8 @@ std::string format_bench_json(const BenchResult& r) {
                       {"seconds", r.seconds},
                       {"mps", r.mps},
                       {"setup_seconds", r.setup_seconds},
-                      {"gpu_bytes_per_particle", r.device_bytes_per_particle}};
+                      {"gpu_bytes_per_particle", r.device_bytes_per_particle},
+                      {"cells_per_rc", r.cells_per_rc}};
   if (!r.profile.empty()) j["profile"] = r.profile;
   return j.dump();
 }
@@ -90,7 +92,7 @@ std::string format_bench_text(const BenchResult& r) {
   s << std::setprecision(4) << "bench " << r.case_name << ": " << r.particles << " particles x "
     << r.steps << " steps on " << r.backend;
   if (r.threads > 0) s << " (" << r.threads << " threads)";
-  s << ", " << r.precision << " precision: " << r.seconds << " s, " << r.mps << " MPS/s";
+  s << ", " << r.precision << " precision, " << r.cells_per_rc << " cells per rc: " << r.seconds << " s, " << r.mps << " MPS/s";
   if (r.device_bytes_per_particle > 0)
     s << ", " << r.device_bytes_per_particle << " GPU bytes/particle";
   s << "\n";

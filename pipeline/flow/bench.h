@@ -20,6 +20,7 @@ struct BenchResult {
   std::int64_t particles = 0;
   std::uint64_t steps = 0;
   int threads = 0;
+  int cells_per_rc = 1;
   double seconds = 0;
   double mps = 0;  // million particle-steps per second
   double setup_seconds = 0;

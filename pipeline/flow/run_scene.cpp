@@ -259,6 +259,15 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       {"binned_outputs", binned_json},
       {"units", units_json(units)},
       {"scene", scene.source_text}};
+  if (scene.model.wall_model.enabled) {
+    const sim::WallModelSpec& w = scene.model.wall_model;
+    summary["walls"] = {{"model", "li2018"},
+                        {"penetration_threshold", w.penetration_threshold},
+                        {"reflection", sim::to_string(w.reflection)},
+                        {"slip_factor", w.slip_factor},
+                        {"max_dissipation_factor", w.max_dissipation_factor},
+                        {"corrections", sim->wall_corrections()}};
+  }
   write_text_atomically(o.out_dir / "summary.json", summary.dump(2) + "\n");
   if (o.progress)
     std::cerr << "rockflow: done: " << total_steps << " steps in " << std::setprecision(3)

@@ -87,6 +87,9 @@ const std::vector<ValidationCase>& validation_cases();
 // The observables cases (validation_interfaces.cpp).
 CaseResult run_slab_case(const ValidateOptions& o);
 CaseResult run_viscosity_case(const ValidateOptions& o);
+// The wall issue's cases (validation_walls.cpp).
+CaseResult run_poiseuille_walls_case(const ValidateOptions& o);
+CaseResult run_no_penetration_case(const ValidateOptions& o);
 const ValidationCase* find_validation_case(const std::string& name);
 
 // Text table and the JSON object of the --json flag.

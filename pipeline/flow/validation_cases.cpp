@@ -219,6 +219,12 @@ const std::vector<ValidationCase>& validation_cases() {
        run_slab_case},
       {"viscosity", "reverse Poiseuille flow: shear viscosity at three forcings",
        run_viscosity_case},
+      {"poiseuille-walls",
+       "body-force flow between wall-model walls: slip length, viscosity, density and "
+       "temperature at the wall",
+       run_poiseuille_walls_case},
+      {"no-penetration", "fluid driven through a grain pack for 10,000 steps stays out of the solid",
+       run_no_penetration_case},
   };
   return cases;
 }

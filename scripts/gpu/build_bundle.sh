@@ -16,5 +16,16 @@ cp build-gpu/bin/rockflow build-gpu/bin/unit_sim build-gpu/bin/unit_gpu .carry/g
 for lib in $(ldd build-gpu/bin/rockflow | awk '/tomlplusplus/ {print $3}'); do
   cp -L "$lib" .carry/gpu/lib/
 done
-git rev-parse --short=12 HEAD > .carry/gpu/COMMIT
+# Side-by-side variants for benchmarks: VARIANTS="name:-DDEFINE ..." builds rockflow once more per
+# variant with the extra CUDA definition (e.g. VARIANTS="inplace:-DMESOROCK_NO_NEIGHBOUR_STASH").
+for spec in ${VARIANTS:-}; do
+  name=${spec%%:*}
+  flags=${spec#*:}
+  cmake -S . -B "build-gpu-$name" -G Ninja -DCMAKE_BUILD_TYPE=Release -DMESOROCK_BUILD_ROCKPREP=OFF \
+    -DMESOROCK_ENABLE_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=90 -DCMAKE_CUDA_FLAGS="$flags" >/dev/null
+  cmake --build "build-gpu-$name" --parallel "$(nproc)" --target rockflow
+  cp "build-gpu-$name/bin/rockflow" ".carry/gpu/bin/rockflow-$name"
+done
+strip .carry/gpu/bin/*  # device code stays; host symbols are not needed there (64 MiB limit)
+{ git rev-parse --short=12 HEAD; git diff --quiet HEAD || echo "+uncommitted changes"; } > .carry/gpu/COMMIT
 du -sh .carry/gpu

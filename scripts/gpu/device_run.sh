@@ -4,6 +4,9 @@
 # (or ./gpu-out) and prints a short table last.
 #   bash scripts/gpu/device_run.sh quick   # tests + small validation + 1-2 M benchmarks
 #   bash scripts/gpu/device_run.sh full    # + full-size validation + 16 M benchmarks
+#   bash scripts/gpu/device_run.sh perf    # tests + benchmarks of every carried rockflow variant
+#                                          # (build_bundle.sh VARIANTS=...), side by side, with
+#                                          # per-pass profiles; no validation
 set -uo pipefail
 mode=${1:-quick}
 out=${OUT:-gpu-out}
@@ -22,26 +25,53 @@ $bin/unit_sim 2>&1 | tee "$out/unit_sim.log" | tail -3
 
 size=small
 [ "$mode" = full ] && size=full
-for c in ${CASES:-eos-dpd eos-mdpd conservation slab viscosity}; do
+[ "$mode" = perf ] && CASES=${CASES:-none}
+for c in ${CASES:-eos-dpd eos-mdpd conservation slab viscosity poiseuille-walls no-penetration}; do
+  [ "$c" = none ] && continue
   $bin/rockflow validate $c --size $size --backend cuda --json 2>>"$out/validate.log" | tee -a "$out/validate.jsonl" | cut -c1-200
 done
 
-bench() { $bin/rockflow bench --backend cuda --json "$@" 2>>"$out/bench.log" | tee -a "$out/bench.jsonl"; }
-bench --case porous --particles 2100000 --steps 200 --compare-cpu --threads $(nproc)
-bench --case bulk --particles 1000000 --steps 200
-if [ "$mode" = full ]; then
-  bench --case porous --particles 16000000 --steps 100
-  bench --case bulk --particles 16000000 --steps 100
+bench() {
+  local exe=$1
+  shift
+  $exe bench --backend cuda --json "$@" 2>>"$out/bench.log" |
+    python3 -c 'import json,sys; j=json.loads(sys.stdin.read()); j["binary"]=sys.argv[1]; print(json.dumps(j))' "$(basename $exe)" |
+    tee -a "$out/bench.jsonl"
+}
+if [ "$mode" = perf ]; then
+  # The main binary at every cell-list resolution, the variants at the default one.
+  for exe in $bin/rockflow $bin/rockflow-*; do
+    [ -x "$exe" ] || continue
+    cells="2"
+    [ "$exe" = "$bin/rockflow" ] && cells=${CELLS:-"1 2 3"}
+    for m in $cells; do
+      for p in "porous 2100000 200" "bulk 1000000 200" "porous 16000000 100" "bulk 16000000 100"; do
+        set -- $p
+        bench $exe --case $1 --particles $2 --steps $3 --profile --cells-per-rc $m
+      done
+    done
+  done
+  bench $bin/rockflow --case porous --particles 2100000 --steps 200 --compare-cpu --threads $(nproc)
+else
+  bench $bin/rockflow --case porous --particles 2100000 --steps 200 --compare-cpu --threads $(nproc)
+  bench $bin/rockflow --case bulk --particles 1000000 --steps 200
+  if [ "$mode" = full ]; then
+    bench $bin/rockflow --case porous --particles 16000000 --steps 100
+    bench $bin/rockflow --case bulk --particles 16000000 --steps 100
+  fi
 fi
 python3 - "$out" <<'PY'
 import json, sys, pathlib
 out = pathlib.Path(sys.argv[1])
-print("\n%-8s %10s %8s %10s %10s" % ("case", "particles", "backend", "MPS/s", "cpu MPS/s"))
+print("\n%-18s %-8s %10s %3s %10s %10s %6s  %s" % ("binary", "case", "particles", "c/r", "MPS/s", "cpu MPS/s", "B/p", "passes ms"))
 for line in (out / "bench.jsonl").read_text().splitlines():
     j = json.loads(line)
     cpu = j.get("cpu", {}).get("mps", float("nan"))
-    print("%-8s %10d %8s %10.1f %10.2f" % (j["case"], j["particles"], j["backend"], j["mps"], cpu))
-for line in (out / "validate.jsonl").read_text().splitlines():
+    passes = j.get("profile", "")
+    passes = passes.replace("per-step GPU time over ", "").replace(" steps (ms):", ":")
+    print("%-18s %-8s %10d %3s %10.1f %10.2f %6.0f  %s" % (j.get("binary", ""), j["case"], j["particles"], j.get("cells_per_rc", ""), j["mps"], cpu, j.get("gpu_bytes_per_particle", 0), passes))
+vpath = out / "validate.jsonl"
+for line in (vpath.read_text().splitlines() if vpath.exists() else []):
     j = json.loads(line)
     print("validate %-14s %s" % (j["case"], "PASS" if j["pass"] else "FAIL"))
 PY

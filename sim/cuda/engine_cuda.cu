@@ -8,6 +8,7 @@
 #include <cub/device/device_reduce.cuh>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "mesorock/errors.h"
@@ -109,28 +110,64 @@ __global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, con
   if (k < n) out[k] = in[perm[k]];
 }
 
+// Each thread's neighbour stash (sim/kernels.h) in shared memory, slot k at k * blockDim.x so
+// that a warp's stores hit 32 different banks.
+constexpr size_t kStashBytes = sizeof(int) * NeighbourStash::kCapacity * kBlock;
+__device__ MESO_INLINE NeighbourStash thread_stash() {
+  extern __shared__ int stash_slots[];
+  return NeighbourStash{stash_slots + threadIdx.x, static_cast<int>(blockDim.x)};
+}
+
 template <class Real, class DensityKernel>
 __global__ void density_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < v.n) density_of_particle<Real, DensityKernel>(v, i);
 }
 
-template <class Real, class C, class T, class B>
-__global__ void force_kernel(StepView<Real> v) {
+template <class Real, class DensityKernel>
+__global__ void density_and_bvf_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) force_on_particle<Real, C, T, B>(v, i);
+  if (i < v.n) density_and_bvf_of_particle<Real, DensityKernel>(v, i);
+}
+
+// The wall model's corrector. Decisions read phi, the particle's own velocity and the positions
+// of wall particles, none of which this kernel writes (the distance test also reads the positions
+// of mobile candidates, which may be being corrected, but only to discard them as not wall); so
+// each particle's correction is the same as on the CPU, where decisions and changes are split.
+template <class Real, bool kVelocityEstimate>
+__global__ void correction_kernel(StepView<Real> v, unsigned int* count) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n) return;
+  Real dv[3];
+  if (penetration_correction(v, i, dv)) {
+    apply_penetration_correction<Real, kVelocityEstimate>(v, i, dv);
+    atomicAdd(count, 1u);
+  }
+}
+
+// MESOROCK_FORCE_MIN_BLOCKS (a benchmark variant, build_bundle.sh VARIANTS) asks the compiler
+// to fit that many blocks per multiprocessor, trading registers for occupancy.
+#if defined(MESOROCK_FORCE_MIN_BLOCKS)
+#define MESOROCK_FORCE_BOUNDS __launch_bounds__(kBlock, MESOROCK_FORCE_MIN_BLOCKS)
+#else
+#define MESOROCK_FORCE_BOUNDS
+#endif
+template <class Real, class C, class T, class B, class W>
+__global__ void MESOROCK_FORCE_BOUNDS force_kernel(StepView<Real> v) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) force_on_particle<Real, C, T, B, W>(v, i, thread_stash());
 }
 
 // Virial of each particle, summed per thread block (fixed tree order, so the result is the same
 // every run); the host adds the per-block partials in block order. 18 doubles per block instead
 // of per particle keeps the stress observable within the memory budget.
-template <class Real, class C, class T>
+template <class Real, class C, class T, class W>
 __global__ void virial_kernel(StepView<Real> v, double* block_sums) {
   using BlockReduce = cub::BlockReduce<double, kBlock>;
   __shared__ typename BlockReduce::TempStorage temp;
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   ParticleVirial<Real> w;
-  if (i < v.n) w = virial_of_particle<Real, C, T>(v, i);
+  if (i < v.n) w = virial_of_particle<Real, C, T, W>(v, i);
   const Real* parts[3] = {w.conservative, w.dissipative, w.random};
   for (int p = 0; p < 3; ++p)
     for (int c = 0; c < 6; ++c) {
@@ -162,6 +199,7 @@ class CudaEngine final : public Engine<Real> {
   using C = typename Terms::conservative;
   using T = typename Terms::thermostat;
   using B = typename Terms::body_force;
+  using W = typename Terms::wall_model;
 
  public:
   CudaEngine(int device, bool profile) : profile_(profile) {
@@ -172,6 +210,7 @@ class CudaEngine final : public Engine<Real> {
   ~CudaEngine() override {
     if (profile_)
       for (auto& e : events_) cudaEventDestroy(e);
+    if (count_host_) cudaFreeHost(count_host_);
   }
 
   const char* name() const override { return "cuda"; }
@@ -186,6 +225,12 @@ class CudaEngine final : public Engine<Real> {
     origin_.upload(host.origin);
     table_.upload(host.table);
     body_force_.upload(host.body_force);
+    if constexpr (W::enabled) {
+      bvf_.upload(host.bvf);
+      kappa_.upload(host.kappa);
+      count_.resize(1);
+      check(cudaMallocHost(&count_host_, sizeof(unsigned int)), "cudaMallocHost");
+    }
     ncells_ = host.grid.count();
     cell_start_.resize(static_cast<size_t>(ncells_) + 1);
     cell_.resize(static_cast<size_t>(n));
@@ -235,6 +280,7 @@ class CudaEngine final : public Engine<Real> {
     type_.download(host.type);
     id_.download(host.id);
     origin_.download(host.origin);
+    if constexpr (W::enabled) bvf_.download(host.bvf);
     host.step = step_;
     host.dt = dt_;
   }
@@ -243,7 +289,7 @@ class CudaEngine final : public Engine<Real> {
     // Allocated on first use only: runs that never ask for stress own no such buffer.
     const int g = blocks_for(n_);
     virial_.resize(static_cast<size_t>(18) * g);
-    virial_kernel<Real, C, T><<<g, kBlock>>>(view(), virial_.get());
+    virial_kernel<Real, C, T, W><<<g, kBlock>>>(view(), virial_.get());
     check(cudaGetLastError(), "virial kernel");
     std::vector<double> h;
     virial_.download(h);
@@ -286,6 +332,8 @@ class CudaEngine final : public Engine<Real> {
     v.vex = vex_.get(), v.vey = vey_.get(), v.vez = vez_.get();
     v.fx = fx_.get(), v.fy = fy_.get(), v.fz = fz_.get();
     v.rho = rho_.get();
+    v.bvf = bvf_.get();
+    v.walls.kappa = kappa_.get();
     v.type = type_.get();
     v.id = id_.get();
     v.cell_start = cell_start_.get();
@@ -297,11 +345,45 @@ class CudaEngine final : public Engine<Real> {
     return v;
   }
 
-  // Stable sort of the storage by cell, then density and forces for step_.
+  // Stable sort of the storage by cell, then density (and the wall model's phi and corrector)
+  // and forces for step_.
   void compute_forces() {
     const int g = blocks_for(n_);
-    cell_index_kernel<<<g, kBlock>>>(view(), cell_.get(), index_.get());
     mark(1);
+    sort_by_cell();
+    mark(2);
+    local_sums();
+    if constexpr (W::enabled) {
+      // The re-sort decision needs the count on the host: one small synchronising copy per step,
+      // paid only by scenes with the wall model.
+      check(cudaMemsetAsync(count_.get(), 0, sizeof(unsigned int)), "count reset");
+      correction_kernel<Real, T::enabled><<<g, kBlock>>>(view(), count_.get());
+      check(cudaMemcpy(count_host_, count_.get(), sizeof(unsigned int), cudaMemcpyDeviceToHost),
+            "correction count");
+      if (*count_host_ > 0) {
+        corrected_ += *count_host_;
+        sort_by_cell();
+        local_sums();
+      }
+    }
+    mark(3);
+    force_kernel<Real, C, T, B, W><<<g, kBlock, kStashBytes>>>(view());
+  }
+
+  void local_sums() {
+    const int g = blocks_for(n_);
+    const StepView<Real> v = view();
+    if constexpr (W::enabled) {
+      using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
+      density_and_bvf_kernel<Real, K><<<g, kBlock>>>(v);
+    } else if constexpr (C::needs_density) {
+      density_kernel<Real, typename C::density_kernel><<<g, kBlock>>>(v);
+    }
+  }
+
+  void sort_by_cell() {
+    const int g = blocks_for(n_);
+    cell_index_kernel<<<g, kBlock>>>(view(), cell_.get(), index_.get());
     size_t temp = sort_temp_.size();
     int bits = 1;
     while ((1 << bits) < ncells_ + 1) ++bits;
@@ -321,14 +403,12 @@ class CudaEngine final : public Engine<Real> {
     origin_.swap(scratch_int_);
     gather_kernel<<<g, kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), n_);
     id_.swap(scratch_id_);
-    mark(2);
-    const StepView<Real> v = view();
-    if constexpr (C::needs_density)
-      density_kernel<Real, typename C::density_kernel><<<g, kBlock>>>(v);
-    mark(3);
-    force_kernel<Real, C, T, B><<<g, kBlock>>>(v);
   }
 
+ public:
+  std::uint64_t wall_corrections() const override { return corrected_; }
+
+ private:
   // Profiling: events 0..5 bound kick_drift | sort | density | force | kick.
   void mark(int k) {
     if (profile_) check(cudaEventRecord(events_[k]), "cudaEventRecord");
@@ -347,7 +427,8 @@ class CudaEngine final : public Engine<Real> {
   std::size_t device_bytes() const override {
     std::size_t b = 0;
     for (const DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_, &fx_,
-                                        &fy_, &fz_, &rho_, &scratch_real_, &body_force_})
+                                        &fy_, &fz_, &rho_, &scratch_real_, &body_force_, &bvf_,
+                                        &kappa_})
       b += a->size() * sizeof(Real);
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_})
       b += a->size() * sizeof(std::int32_t);
@@ -386,6 +467,10 @@ class CudaEngine final : public Engine<Real> {
   DeviceBuffer<PairParams<Real>> table_;
   DeviceBuffer<Real> body_force_;
   DeviceBuffer<double> virial_, bins_;
+  DeviceBuffer<Real> bvf_, kappa_;  // wall model only
+  DeviceBuffer<unsigned int> count_;
+  unsigned int* count_host_ = nullptr;
+  std::uint64_t corrected_ = 0;
   bool profile_ = false;
   cudaEvent_t events_[6] = {};
   double pass_ms_[5] = {0, 0, 0, 0, 0};

@@ -82,21 +82,49 @@ class CellList : public OnEveryBackend {};
 
 // Boxes with 1, 2 and 3+ cells per axis, periodic and reflective: the cell-list density equals
 // the brute-force one, so no pair is missed or counted twice.
+// Every stencil depth: with c cells per rc an axis needs 2c + 1 cells before the stencil stops
+// covering it whole, so these boxes exercise both the shifted and the minimum-image paths.
 TEST_P(CellList, DensityMatchesBruteForceForEveryBoxShape) {
-  for (bool periodic : {true, false}) {
-    for (const auto& L :
-         {std::array<double, 3>{2.0, 2.0, 2.0}, std::array<double, 3>{2.5, 3.2, 4.7},
-          std::array<double, 3>{6.0, 2.0, 3.0}, std::array<double, 3>{1.5, 5.0, 2.0}}) {
-      if (periodic && L[0] < 2) continue;  // periodic edges must be >= 2 rc
-      FluidSetup s = random_fluid(L, 6.0, periodic, false);
-      auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
-      const auto rho = sim->densities();
-      const auto ref = brute_density(sim->particles(), s.box, 0.75);
-      for (size_t i = 0; i < ref.size(); ++i)
-        ASSERT_NEAR(rho[i], ref[i], 1e-9 * (1 + ref[i]))
-            << "particle " << i << " box " << L[0] << "x" << L[1] << "x" << L[2]
-            << (periodic ? " periodic" : " reflective");
+  for (int cells_per_rc : {1, 2, 3}) {
+    for (bool periodic : {true, false}) {
+      for (const auto& L :
+           {std::array<double, 3>{2.0, 2.0, 2.0}, std::array<double, 3>{2.5, 3.2, 4.7},
+            std::array<double, 3>{6.0, 2.0, 3.0}, std::array<double, 3>{1.5, 5.0, 2.0}}) {
+        if (periodic && L[0] < 2) continue;  // periodic edges must be >= 2 rc
+        FluidSetup s = random_fluid(L, 6.0, periodic, false);
+        ms::SimulationOptions o = options();
+        o.cells_per_cutoff = cells_per_rc;
+        auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, o);
+        const auto rho = sim->densities();
+        const auto ref = brute_density(sim->particles(), s.box, 0.75);
+        for (size_t i = 0; i < ref.size(); ++i)
+          ASSERT_NEAR(rho[i], ref[i], 1e-9 * (1 + ref[i]))
+              << "particle " << i << " box " << L[0] << "x" << L[1] << "x" << L[2]
+              << (periodic ? " periodic" : " reflective") << ", " << cells_per_rc
+              << " cells per rc";
+      }
     }
+  }
+}
+
+// The force pass sees the same neighbours whatever the stencil: forces agree to round-off (the
+// summation order differs) between 1, 2 and 3 cells per rc.
+TEST_P(CellList, ForcesDoNotDependOnTheStencil) {
+  FluidSetup s = random_fluid({5.0, 2.5, 4.2}, 7.0, true, true);
+  std::array<std::vector<double>, 3> ref;
+  for (int cells_per_rc : {1, 2, 3}) {
+    ms::SimulationOptions o = options();
+    o.cells_per_cutoff = cells_per_rc;
+    auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, o);
+    const auto f = sim->forces();
+    if (cells_per_rc == 1) {
+      ref = f;
+      continue;
+    }
+    for (int a = 0; a < 3; ++a)
+      for (size_t i = 0; i < f[a].size(); ++i)
+        ASSERT_NEAR(f[a][i], ref[a][i], 1e-9 * (1 + std::abs(ref[a][i])))
+            << "particle " << i << " axis " << a << ", " << cells_per_rc << " cells per rc";
   }
 }
 

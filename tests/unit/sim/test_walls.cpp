@@ -1,0 +1,232 @@
+// The wall model (Li et al. 2018; sim/wall_model.h): the flat-wall relations against an
+// independent Monte Carlo integral, the boundary volume fraction against brute force, the
+// corrector on a particle placed inside a wall, and a fluid pressed against a wall that leaks
+// without the model and stays out with it. One body for every backend.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "backends.h"
+#include "mesorock/errors.h"
+#include "sim/init.h"
+#include "sim/simulation.h"
+#include "sim/wall_model.h"
+
+namespace ms = mesorock::sim;
+using mesorock::test::OnEveryBackend;
+
+namespace {
+
+// Monte Carlo over the unit ball: the cap d_z > h of W = (1 - r)^2, W e_x^2 and W e_x^2 d_z.
+struct McCap {
+  double phi, kappa;
+};
+McCap monte_carlo_cap(double h, int samples, std::uint32_t seed) {
+  std::mt19937_64 gen(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double whole = 0, cap = 0, j0 = 0, j1 = 0;
+  for (int k = 0; k < samples; ++k) {
+    const double x = u(gen), y = u(gen), z = u(gen);
+    const double r = std::sqrt(x * x + y * y + z * z);
+    if (r >= 1 || r == 0) continue;
+    const double w = (1 - r) * (1 - r);
+    whole += w;
+    if (z > h) {
+      cap += w;
+      j0 += w * x * x / (r * r);
+      j1 += w * x * x / (r * r) * z;
+    }
+  }
+  return {cap / whole, j1 / (h * j0)};
+}
+
+TEST(WallModelTable, FlatWallRelationsMatchAnIndependentIntegral) {
+  // phi = 1/2 on the surface, 0 beyond the cutoff; kappa -> 1 far from the wall.
+  EXPECT_NEAR(ms::flat_wall_relation(0.0).phi, 0.5, 1e-3);
+  EXPECT_EQ(ms::flat_wall_relation(1.0).phi, 0.0);
+  for (double h : {0.1, 0.3, 0.6}) {
+    const ms::FlatWallRelation f = ms::flat_wall_relation(h);
+    const McCap mc = monte_carlo_cap(h, 4000000, 11);
+    EXPECT_NEAR(f.phi, mc.phi, 0.01 * mc.phi + 1e-3) << "h " << h;
+    EXPECT_NEAR(f.kappa, mc.kappa, 0.02 * mc.kappa) << "h " << h;
+  }
+}
+
+TEST(WallModelTable, KappaGrowsTowardsTheWallAndIsCapped) {
+  const std::vector<double> t = ms::tabulate_kappa(256, 0.5, 5.0);
+  ASSERT_EQ(t.size(), 256u);
+  EXPECT_NEAR(t.front(), 1.0, 0.05);  // phi = 0: beyond the cutoff
+  EXPECT_DOUBLE_EQ(t.back(), 5.0);    // phi = 1/2: on the surface, capped
+  for (size_t k = 1; k < t.size(); ++k) EXPECT_GE(t[k], t[k - 1] - 1e-9) << k;
+  // Between: kappa(phi(h)) = kappa(h) read back at h = 0.2 (phi 0.266).
+  const ms::FlatWallRelation f = ms::flat_wall_relation(0.2);
+  const double u = f.phi / 0.5 * 255;
+  const auto k = static_cast<size_t>(u);
+  const double read = t[k] + (u - k) * (t[k + 1] - t[k]);
+  EXPECT_NEAR(read, f.kappa, 0.01 * f.kappa);
+}
+
+struct WallSetup {
+  ms::Model model;
+  ms::BoxSpec box;
+  ms::ParticleSet particles;
+};
+
+// A frozen wall lattice (density 8) filling z in [0, wall_top), fluid above it up to a reflective
+// face at the top; x and y periodic.
+WallSetup wall_and_fluid(bool wall_model, double wall_top, double fluid_count, double gz,
+                         std::uint64_t seed) {
+  WallSetup s;
+  s.model.conservative = ms::ConservativeKind::MDPD;
+  s.model.seed = seed;
+  const int fluid = s.model.add_type({"fluid", false, {0, 0, gz}});
+  const int wall = s.model.add_type({"wall", true, {0, 0, 0}});
+  s.model.set_pair(fluid, fluid, {-40, 25, 4.5});
+  s.model.set_pair(fluid, wall, {-30, 25, 4.5});
+  s.model.set_pair(wall, wall, {-40, 25, 4.5});
+  s.model.wall_model.enabled = wall_model;
+  s.box.hi = {6, 6, wall_top + 6};
+  s.box.periodic = {true, true, false};
+  std::int64_t next = 0;
+  ms::fill_lattice(s.particles, wall, {0, 0, 0}, {6, 6, wall_top}, 8, next);
+  ms::fill_random(s.particles, fluid, {0, 0, wall_top + 0.2}, s.box.hi,
+                  static_cast<std::int64_t>(fluid_count), seed, next);
+  ms::assign_maxwell_velocities(s.particles, s.model, 1.0, seed);
+  return s;
+}
+
+class Walls : public OnEveryBackend {};
+
+TEST_P(Walls, BoundaryVolumeFractionMatchesBruteForce) {
+  for (auto precision : {ms::Precision::Double, ms::Precision::Single}) {
+    WallSetup s = wall_and_fluid(true, 2.0, 1200, 0.0, 3);
+    s.model.precision = precision;
+    auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
+    const ms::ParticleSet p = sim->particles();
+    const std::vector<double> phi = sim->boundary_volume_fractions();
+    ASSERT_EQ(phi.size(), p.size());
+    const int wall = s.model.type_index("wall");
+    const double tol = precision == ms::Precision::Double ? 1e-10 : 1e-5;
+    int near_wall = 0;
+    for (size_t i = 0; i < p.size(); ++i) {
+      double sum_wall = 0, sum_all = 0;
+      for (size_t j = 0; j < p.size(); ++j) {
+        if (i == j) continue;
+        double d[3] = {p.x[i] - p.x[j], p.y[i] - p.y[j], p.z[i] - p.z[j]};
+        for (int a = 0; a < 2; ++a) d[a] -= s.box.length(a) * std::round(d[a] / s.box.length(a));
+        const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (r >= 1) continue;
+        sum_all += (1 - r) * (1 - r);
+        if (p.type[j] == wall) sum_wall += (1 - r) * (1 - r);
+      }
+      const double expected = p.type[i] == wall || sum_all == 0 ? 0.0 : sum_wall / sum_all;
+      ASSERT_NEAR(phi[i], expected, tol) << "particle " << i;
+      if (expected > 0.05) ++near_wall;
+    }
+    EXPECT_GT(near_wall, 50);  // the comparison covered particles that see the wall
+  }
+}
+
+// One fluid particle 0.1 rc inside a flat wall lattice, at a lattice-cell centre in x and y so
+// that the wall-side normal is exactly +z by symmetry.
+WallSetup particle_inside_wall(double vz, ms::WallReflection reflection) {
+  WallSetup s;
+  s.model.conservative = ms::ConservativeKind::MDPD;
+  const int fluid = s.model.add_type({"fluid", false, {0, 0, 0}});
+  const int wall = s.model.add_type({"wall", true, {0, 0, 0}});
+  s.model.set_pair(fluid, fluid, {-40, 25, 4.5});
+  s.model.set_pair(fluid, wall, {-40, 25, 4.5});
+  s.model.set_pair(wall, wall, {-40, 25, 4.5});
+  s.model.wall_model.enabled = true;
+  s.model.wall_model.reflection = reflection;
+  s.box.hi = {4, 4, 6};
+  s.box.periodic = {true, true, false};
+  std::int64_t next = 0;
+  ms::fill_lattice(s.particles, wall, {0, 0, 0}, {4, 4, 2}, 8, next);  // spacing 0.5
+  s.particles.add(2.25, 2.25, 1.9, 0.3, -0.2, vz, fluid, next++);
+  return s;
+}
+
+TEST_P(Walls, CorrectorReflectsAParticleMovingIntoTheWall) {
+  for (auto reflection : {ms::WallReflection::Specular, ms::WallReflection::BounceBack}) {
+    WallSetup s = particle_inside_wall(-1.0, reflection);
+    auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
+    EXPECT_EQ(sim->wall_corrections(), 1u);
+    const ms::ParticleSet p = sim->particles();
+    const size_t i = p.size() - 1;
+    EXPECT_GT(sim->boundary_volume_fractions()[i], 0.5);
+    EXPECT_NEAR(p.vz[i], 1.0, 1e-9);
+    EXPECT_NEAR(p.z[i], 1.9 + 0.01 * 2.0, 1e-9);
+    const double vx = reflection == ms::WallReflection::Specular ? 0.3 : -0.3;
+    const double vy = reflection == ms::WallReflection::Specular ? -0.2 : 0.2;
+    EXPECT_NEAR(p.vx[i], vx, 1e-9) << ms::to_string(reflection);
+    EXPECT_NEAR(p.vy[i], vy, 1e-9) << ms::to_string(reflection);
+    EXPECT_NEAR(p.x[i], 2.25 + 0.01 * (vx - 0.3), 1e-9);
+  }
+}
+
+TEST_P(Walls, CorrectorLeavesAParticleLeavingTheWall) {
+  WallSetup s = particle_inside_wall(+1.0, ms::WallReflection::Specular);
+  auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
+  EXPECT_EQ(sim->wall_corrections(), 0u);
+  const ms::ParticleSet p = sim->particles();
+  EXPECT_NEAR(p.vz[p.size() - 1], 1.0, 1e-12);
+  EXPECT_NEAR(p.z[p.size() - 1], 1.9, 1e-12);
+}
+
+// A soft DPD fluid (density 3) pushed onto a sparse, weakly repulsive wall 1.5 rc thick (density
+// 4, a_FW = 5) by a body force for 800 steps: without the wall model fluid particles end up deep
+// in the wall; with it none sits 0.5 rc or more inside (the corrector acts within a step of
+// phi = 1/2, the wall surface).
+TEST_P(Walls, FluidPressedOntoAWallLeaksWithoutTheModelAndNotWithIt) {
+  int deep[2] = {0, 0};
+  for (int with_model : {0, 1}) {
+    WallSetup s;
+    s.model.conservative = ms::ConservativeKind::DPD;
+    s.model.seed = 9;
+    const int fluid = s.model.add_type({"fluid", false, {0, 0, -1.0}});
+    const int wall = s.model.add_type({"wall", true, {0, 0, 0}});
+    s.model.set_pair(fluid, fluid, {25, 0, 4.5});
+    s.model.set_pair(fluid, wall, {5, 0, 4.5});
+    s.model.set_pair(wall, wall, {25, 0, 4.5});
+    s.model.wall_model.enabled = with_model == 1;
+    s.box.hi = {5, 5, 7.5};
+    s.box.periodic = {true, true, false};
+    std::int64_t next = 0;
+    ms::fill_lattice(s.particles, wall, {0, 0, 0}, {5, 5, 1.5}, 4, next);
+    ms::fill_random(s.particles, fluid, {0, 0, 1.7}, s.box.hi, 5 * 5 * 5 * 3, 9, next);
+    ms::assign_maxwell_velocities(s.particles, s.model, 1.0, 9);
+    auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
+    sim->run(800);
+    const ms::ParticleSet p = sim->particles();
+    for (size_t i = 0; i < p.size(); ++i)
+      if (p.type[i] == fluid && p.z[i] < 1.0) ++deep[with_model];
+    if (with_model) EXPECT_GT(sim->wall_corrections(), 0u);
+  }
+  std::printf("fluid particles 0.5 rc or more inside the wall: %d without the wall model, %d with\n",
+              deep[0], deep[1]);
+  EXPECT_GT(deep[0], 10) << "the set-up must press fluid into an unprotected wall";
+  EXPECT_EQ(deep[1], 0) << "fluid particles 0.5 rc or more inside the wall";
+}
+
+TEST_P(Walls, InvalidWallModelsAreRefused) {
+  WallSetup s = wall_and_fluid(true, 1.5, 100, 0, 1);
+  s.model.thermostat = false;
+  EXPECT_THROW(ms::make_simulation(s.model, s.box, s.particles, 0.01, options()),
+               mesorock::ConfigError);
+  s = wall_and_fluid(true, 1.5, 100, 0, 1);
+  s.model.types[1].frozen = false;
+  EXPECT_THROW(ms::make_simulation(s.model, s.box, s.particles, 0.01, options()),
+               mesorock::ConfigError);
+  s = wall_and_fluid(true, 1.5, 100, 0, 1);
+  s.model.wall_model.penetration_threshold = 1.5;
+  EXPECT_THROW(ms::make_simulation(s.model, s.box, s.particles, 0.01, options()),
+               mesorock::ConfigError);
+}
+
+MESOROCK_ON_EVERY_BACKEND(Walls);
+
+}  // namespace
