@@ -555,7 +555,7 @@ void read_walls(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("walls");
   if (!tbl) return;
   Table t(c, *tbl, "walls",
-          {"model", "types", "penetration_threshold", "reflection", "slip_factor",
+          {"model", "types", "wall_density", "penetration_threshold", "reflection", "slip_factor",
            "max_dissipation_factor"});
   sim::WallModelSpec& w = s.model.wall_model;
   const std::string model = string_at(c, t.require("model"), "walls.model");
@@ -574,6 +574,10 @@ void read_walls(const Context& c, Table& top, Scene& s) {
   }
   if (s.model.wall_mask() == 0)
     fail(c, "walls.types", "no frozen type to act as wall (give types or freeze a type)");
+  if (auto n = t.number("wall_density")) {
+    if (!(*n > 0)) fail(c, "walls.wall_density", "must be positive (got " + num(*n) + ")");
+    w.wall_density = *n;
+  }
   if (auto phi = t.number("penetration_threshold")) {
     if (!(*phi > 0 && *phi < 1))
       fail(c, "walls.penetration_threshold", "must be in (0, 1) (got " + num(*phi) + ")");
@@ -582,8 +586,7 @@ void read_walls(const Context& c, Table& top, Scene& s) {
   if (const toml::node* n = t.get("reflection"))
     w.reflection = choice_at<sim::WallReflection>(
         c, *n, "walls.reflection",
-        {{"specular", sim::WallReflection::Specular},
-         {"bounce-back", sim::WallReflection::BounceBack}});
+        {{"li2018", sim::WallReflection::Li2018}, {"specular", sim::WallReflection::Specular}});
   if (auto f = t.number("slip_factor")) {
     if (!(*f >= 0 && *f <= 1))
       fail(c, "walls.slip_factor", "must be in [0, 1], 1 = no slip (got " + num(*f) + ")");

@@ -197,12 +197,12 @@ MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
 
 // Density (when DensityKernel is not void) and the boundary volume fraction of the wall model
 // (sim/wall_model.h) in one neighbour loop:
-//   phi_i = sum_{j in wall} W(r_ij) / sum_{j != i} W(r_ij),  W = (1 - r)^2,
+//   phi_i = (1 / n_w) sum_{j in wall} W(r_ij),  W the Lucy kernel of support rc,
 // for particles that are not wall themselves (phi = 0 for wall particles).
 template <class Real, class DensityKernel>
 MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, int i) {
   constexpr bool kDensity = !std::is_void<DensityKernel>::value;
-  Real rho = 0, wall = 0, all = 0;
+  Real rho = 0, wall = 0;
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
   const bool fluid = !v.walls.is_wall(v.type[i]);
@@ -211,20 +211,20 @@ MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, in
     if constexpr (kDensity) {
       if (r2 < rd2) rho += DensityKernel::weight(r, rd);
     }
-    const Real w = bvf_weight(r);
-    all += w;
-    if (v.walls.is_wall(v.type[j])) wall += w;
+    if (fluid && v.walls.is_wall(v.type[j])) wall += bvf_weight(r);
   });
   if constexpr (kDensity) v.rho[i] = rho;
-  v.bvf[i] = fluid && all > Real(0) ? wall / all : Real(0);
+  v.bvf[i] = fluid ? wall * v.walls.inv_wall_density : Real(0);
 }
 
 // The corrector of the wall model for particle i after the drift (the predictor): a mobile
-// non-wall particle with phi_i > phi_c moving into the wall (v . n < 0, n the wall-side normal
-// sum_{j in wall} W(r_ij) e_ij) gets its normal velocity reflected (all of it with bounce-back),
-// v~ too, and its drift redone with the new velocity: x += dt (v' - v). Writes the velocity
-// change to dv and returns true when the particle must be corrected; changes nothing itself, so
-// that every particle's decision sees the same positions (the caller applies the changes).
+// non-wall particle with phi_i > phi_c is inside the wall. With n the wall-side normal (along
+// -grad phi: sum_{j in wall} r (1 - r)^2 e_ij) its velocity v becomes
+//   Li2018:   v' = -v + 2 max(0, v . n) n
+//   Specular: v' = v - 2 min(0, v . n) n
+// and its drift is redone from x(t): x += dt (v' - v). Writes dv = v' - v and returns true when
+// the particle must be corrected; changes nothing itself, so that every particle's decision
+// sees the same positions (the caller applies the changes).
 template <class Real>
 MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real dv[3]) {
   if (v.frozen(i) || v.walls.is_wall(v.type[i]) || !(v.bvf[i] > v.walls.phi_c)) return false;
@@ -232,7 +232,7 @@ MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, 
   for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
     if (!v.walls.is_wall(v.type[j]) || r2 < coincident_r2<Real>()) return;
     const Real r = real_sqrt(r2);
-    const Real w = bvf_weight(r) / r;
+    const Real w = bvf_normal_weight(r) / r;  // times the unit vector d / r
     nx += w * dx;
     ny += w * dy;
     nz += w * dz;
@@ -244,12 +244,13 @@ MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, 
   ny *= inv;
   nz *= inv;
   const Real vn = v.vx[i] * nx + v.vy[i] * ny + v.vz[i] * nz;
-  if (!(vn < Real(0))) return false;
-  if (v.walls.bounce_back) {
-    dv[0] = -2 * v.vx[i];
-    dv[1] = -2 * v.vy[i];
-    dv[2] = -2 * v.vz[i];
+  if (v.walls.reflection == WallReflection::Li2018) {
+    const Real out = vn > Real(0) ? vn : Real(0);
+    dv[0] = -2 * v.vx[i] + 2 * out * nx;
+    dv[1] = -2 * v.vy[i] + 2 * out * ny;
+    dv[2] = -2 * v.vz[i] + 2 * out * nz;
   } else {
+    if (!(vn < Real(0))) return false;  // specular: only a particle moving in is turned
     dv[0] = -2 * vn * nx;
     dv[1] = -2 * vn * ny;
     dv[2] = -2 * vn * nz;
@@ -264,36 +265,56 @@ struct PairForce {
   Real r = 0;
 };
 
+// What the pair terms read of one particle of a pair, loaded once per particle (only what the
+// compiled terms need). (Packing these into 16-byte records for the GPU was measured and did not
+// pay: H200, porous 16 M, 803 MPS/s packed against 817 without; docs/benchmarks.md.)
+template <class Real>
+struct PairSide {
+  int index = 0;
+  int type = 0;
+  Real rho = 0;
+  Real vx = 0, vy = 0, vz = 0;  // velocity estimate v~
+  std::uint64_t id = 0;
+};
+
+template <class Real, class Conservative, class Thermostat>
+MESO_HD MESO_INLINE PairSide<Real> pair_side(const StepView<Real>& v, int j) {
+  PairSide<Real> s;
+  s.index = j;
+  constexpr bool kDensity = Conservative::enabled && Conservative::needs_density;
+  s.type = v.type[j];
+  if constexpr (kDensity) s.rho = v.rho[j];
+  if constexpr (Thermostat::enabled) {
+    s.vx = v.vex[j];
+    s.vy = v.vey[j];
+    s.vz = v.vez[j];
+    s.id = static_cast<std::uint64_t>(v.id[j]);
+  }
+  return s;
+}
+
 // With the wall model, a fluid-wall pair's dissipation is scaled by the no-slip factor of the
 // fluid particle's phi (gamma_eff = gamma kappa, sigma_eff = sigma sqrt(kappa)), whichever side
 // the pair is evaluated from, so F_ij = -F_ji still holds.
 template <class Real, class Conservative, class Thermostat, class WallModel = NoWallModel>
-MESO_HD MESO_INLINE PairForce<Real> pair_force(const StepView<Real>& v, int i, int j, Real dx,
-                                               Real dy, Real dz, Real r2) {
+MESO_HD MESO_INLINE PairForce<Real> pair_force(const StepView<Real>& v, const PairSide<Real>& a,
+                                               const PairSide<Real>& b, Real dx, Real dy, Real dz,
+                                               Real r2) {
   PairForce<Real> f;
   if (r2 < coincident_r2<Real>()) return f;
   const Real r = real_sqrt(r2);
   f.r = r;
-  const PairParams<Real>& p = v.table[v.type[i] * v.ntypes + v.type[j]];
-  if constexpr (Conservative::enabled) {
-    Real rho_i = 0, rho_j = 0;
-    if constexpr (Conservative::needs_density) {
-      rho_i = v.rho[i];
-      rho_j = v.rho[j];
-    }
-    f.conservative = Conservative::magnitude(r, rho_i, rho_j, p, v.rd);
-  }
+  const PairParams<Real>& p = v.table[a.type * v.ntypes + b.type];
+  if constexpr (Conservative::enabled)
+    f.conservative = Conservative::magnitude(r, a.rho, b.rho, p, v.rd);
   if constexpr (Thermostat::enabled) {
     const Real inv_r = Real(1) / r;
-    const Real e_dot_v =
-        (dx * (v.vex[i] - v.vex[j]) + dy * (v.vey[i] - v.vey[j]) + dz * (v.vez[i] - v.vez[j])) *
-        inv_r;
-    const Real xi = pair_random<Real>(v.seed, v.step, static_cast<std::uint64_t>(v.id[i]),
-                                      static_cast<std::uint64_t>(v.id[j]));
+    const Real e_dot_v = (dx * (a.vx - b.vx) + dy * (a.vy - b.vy) + dz * (a.vz - b.vz)) * inv_r;
+    const Real xi = pair_random<Real>(v.seed, v.step, a.id, b.id);
     if constexpr (WallModel::enabled) {
-      const bool wall_i = v.walls.is_wall(v.type[i]);
-      if (wall_i != v.walls.is_wall(v.type[j])) {
-        const Real kappa = v.walls.dissipation_factor(v.bvf[wall_i ? j : i]);
+      const bool wall_a = v.walls.is_wall(a.type);
+      if (wall_a != v.walls.is_wall(b.type)) {
+        const Real kappa = v.walls.dissipation_factor(v.bvf[wall_a ? b.index : a.index]);
         PairParams<Real> q = p;
         q.gamma *= kappa;
         q.sigma *= real_sqrt(kappa);
@@ -315,10 +336,11 @@ MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i,
                                            const NeighbourStash& stash) {
   Real fx = 0, fy = 0, fz = 0;
   if (!v.frozen(i)) {
+    const PairSide<Real> self = pair_side<Real, Conservative, Thermostat>(v, i);
     for_each_neighbour_stashed(v, i, stash, Real(1), [&](int j, Real dx, Real dy, Real dz,
                                                           Real r2) {
-      const PairForce<Real> f =
-          pair_force<Real, Conservative, Thermostat, WallModel>(v, i, j, dx, dy, dz, r2);
+      const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
+          v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
       if (f.r == Real(0)) return;
       const Real s = (f.conservative + f.dissipative + f.random) / f.r;
       fx += s * dx;
@@ -406,32 +428,19 @@ MESO_HD MESO_INLINE void kick(const StepView<Real>& v, int i) {
   v.vz[i] += half * v.fz[i];
 }
 
-// Applies a correction found by penetration_correction: v += dv, the same reflection of v~, and
+// Applies a correction found by penetration_correction: v += dv, the same change to v~ (with
+// lambda = 1/2 v~ is the half-step velocity the corrector turned, so both stay equal), and
 // x += dt dv, then the box faces.
 template <class Real, bool kVelocityEstimate>
 MESO_HD MESO_INLINE void apply_penetration_correction(const StepView<Real>& v, int i,
                                                       const Real dv[3]) {
-  const Real vx0 = v.vx[i], vy0 = v.vy[i], vz0 = v.vz[i];
   v.vx[i] += dv[0];
   v.vy[i] += dv[1];
   v.vz[i] += dv[2];
   if constexpr (kVelocityEstimate) {
-    if (v.walls.bounce_back) {
-      v.vex[i] = -v.vex[i];
-      v.vey[i] = -v.vey[i];
-      v.vez[i] = -v.vez[i];
-    } else {
-      // dv = -2 (v . n) n: recover n from dv and v, and reflect v~ about the same plane.
-      const Real vn = -Real(0.5) * (dv[0] * vx0 + dv[1] * vy0 + dv[2] * vz0);  // = (v.n)^2
-      if (vn > Real(0)) {
-        const Real s = real_sqrt(vn);  // |v . n|
-        const Real nx = dv[0] / (2 * s), ny = dv[1] / (2 * s), nz = dv[2] / (2 * s);
-        const Real en = v.vex[i] * nx + v.vey[i] * ny + v.vez[i] * nz;
-        v.vex[i] -= 2 * en * nx;
-        v.vey[i] -= 2 * en * ny;
-        v.vez[i] -= 2 * en * nz;
-      }
-    }
+    v.vex[i] += dv[0];
+    v.vey[i] += dv[1];
+    v.vez[i] += dv[2];
   }
   v.x[i] += v.dt * dv[0];
   v.y[i] += v.dt * dv[1];
@@ -455,11 +464,12 @@ struct ParticleVirial {
 template <class Real, class Conservative, class Thermostat, class WallModel = NoWallModel>
 MESO_HD MESO_INLINE ParticleVirial<Real> virial_of_particle(const StepView<Real>& v, int i) {
   ParticleVirial<Real> w;
+  const PairSide<Real> self = pair_side<Real, Conservative, Thermostat>(v, i);
   for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
     // Frozen-frozen pairs exert no force that matters (neither moves) and are left out.
     if (v.frozen(i) && v.frozen(j)) return;
-    const PairForce<Real> f =
-        pair_force<Real, Conservative, Thermostat, WallModel>(v, i, j, dx, dy, dz, r2);
+    const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
+        v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
     if (f.r == Real(0)) return;
     // r_ij^a F_ij^b = f d^a d^b / r with F_ij = f e and e = d / r; half to each particle.
     const Real rr[6] = {dx * dx, dy * dy, dz * dz, dx * dy, dx * dz, dy * dz};

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/wall_model.h"
+
 namespace mesorock::sim {
 
 enum class ConservativeKind { DPD, MDPD };
@@ -41,17 +43,15 @@ struct PairSpec {
 };
 
 // The boundary model of Li et al. 2018 (sim/wall_model.h, docs/walls.md). Off unless enabled.
-enum class WallReflection { Specular, BounceBack };
-inline const char* to_string(WallReflection r) {
-  return r == WallReflection::Specular ? "specular" : "bounce-back";
-}
 struct WallModelSpec {
   bool enabled = false;
-  std::uint32_t wall_types = 0;        // bit t: type t is wall (must be frozen); 0 = every frozen type
+  std::uint32_t wall_types = 0;  // bit t: type t is wall (must be frozen); 0 = every frozen type
+  double wall_density = 8.0;     // n_w, the number density of the wall particles
   double penetration_threshold = 0.5;  // phi_c
-  WallReflection reflection = WallReflection::Specular;
-  double slip_factor = 1.0;             // 1 = no slip; in [0, 1) partial slip
-  double max_dissipation_factor = 5.0;  // cap of kappa (stability of the explicit dissipation)
+  WallReflection reflection = WallReflection::Li2018;
+  double slip_factor = 1.0;  // 1 = no slip; in [0, 1) partial slip
+  // Cap of kappa: 8.2 = kappa at the authors' floor of the wall distance, h = 0.025 rc.
+  double max_dissipation_factor = 8.2;
 };
 
 struct Model {

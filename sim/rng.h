@@ -11,6 +11,13 @@
 
 namespace mesorock::sim {
 
+// Rounds of Philox: 10 is Random123's default (7 already passes BigCrush); MESOROCK_RNG_ROUNDS
+// builds a benchmark variant with fewer (docs/benchmarks.md).
+#if !defined(MESOROCK_RNG_ROUNDS)
+#define MESOROCK_RNG_ROUNDS 10
+#endif
+using PairPhilox = r123::Philox4x32_R<MESOROCK_RNG_ROUNDS>;
+
 // Zero-mean, unit-variance uniform variate xi_ij = sqrt(3) (2u - 1), u in (0, 1).
 // Groot & Warren (1997) showed a uniform distribution serves the DPD thermostat as well as a
 // Gaussian and it is cheaper (one word of Philox output, no log/sqrt).
@@ -19,12 +26,12 @@ MESO_HD MESO_INLINE Real pair_random(std::uint64_t seed, std::uint64_t step, std
                                      std::uint64_t id_j) {
   const std::uint64_t lo = id_i < id_j ? id_i : id_j;
   const std::uint64_t hi = id_i < id_j ? id_j : id_i;
-  r123::Philox4x32 rng;
-  r123::Philox4x32::ctr_type ctr = {{static_cast<std::uint32_t>(lo), static_cast<std::uint32_t>(hi),
+  PairPhilox rng;
+  PairPhilox::ctr_type ctr = {{static_cast<std::uint32_t>(lo), static_cast<std::uint32_t>(hi),
                                      static_cast<std::uint32_t>(step),
                                      static_cast<std::uint32_t>(step >> 32)}};
   // The high id words go into the key with the seed: ids up to 2^40 stay distinct.
-  r123::Philox4x32::key_type key = {
+  PairPhilox::key_type key = {
       {static_cast<std::uint32_t>(seed) ^ (static_cast<std::uint32_t>(lo >> 32) << 16),
        static_cast<std::uint32_t>(seed >> 32) ^ static_cast<std::uint32_t>(hi >> 32)}};
   const auto out = rng(ctr, key);

@@ -65,6 +65,8 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
   }
   if (m.wall_model.enabled) {
     const WallModelSpec& w = m.wall_model;
+    check_finite(w.wall_density, "wall model wall density");
+    if (!(w.wall_density > 0)) throw ConfigError("wall model wall density must be positive");
     check_finite(w.penetration_threshold, "wall model penetration threshold");
     if (!(w.penetration_threshold > 0 && w.penetration_threshold < 1))
       throw ConfigError("wall model penetration threshold must be in (0, 1)");
@@ -151,7 +153,8 @@ class SimulationImpl final : public Simulation {
       const WallModelSpec& w = model.wall_model;
       s.walls.wall_mask = model.wall_mask();
       s.walls.phi_c = static_cast<Real>(w.penetration_threshold);
-      s.walls.bounce_back = w.reflection == WallReflection::BounceBack;
+      s.walls.reflection = w.reflection;
+      s.walls.inv_wall_density = static_cast<Real>(1.0 / w.wall_density);
       s.walls.slip_factor = static_cast<Real>(w.slip_factor);
       s.walls.phi_max = Real(0.5);
       const std::vector<double> table = tabulate_kappa(kKappaEntries, 0.5, w.max_dissipation_factor);

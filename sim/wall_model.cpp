@@ -9,9 +9,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Integrals over the cap d_z > h of the unit sphere, in cylinders around the normal: W, W e_x^2
-// and W e_x^2 d_z, with e_x^2 averaged over the azimuth (rho^2 / 2 r^2). Midpoint rule; 200 x 200
-// points give about 4 correct digits, far below what the tabulation needs.
+// Integrals over the cap d_z > h of the unit ball, in cylinders around the normal: the BVF
+// kernel W, and w_D e_x^2 and w_D e_x^2 d_z with e_x^2 averaged over the azimuth (rho^2 / 2 r^2).
+// Midpoint rule; 200 x 200 points give about 4 correct digits, far below what the tabulation
+// needs.
 struct CapIntegrals {
   double w = 0, j0 = 0, j1 = 0;
 };
@@ -28,12 +29,12 @@ CapIntegrals cap_integrals(double h) {
       const double rho = (b + 0.5) * dr;
       const double r = std::sqrt(rho * rho + z * z);
       if (r >= 1.0) continue;
-      const double w = (1.0 - r) * (1.0 - r);
+      const double wd = (1.0 - r) * (1.0 - r);
       const double ring = 2.0 * kPi * rho * dr * dz;
       const double ex2 = 0.5 * rho * rho / (r * r);
-      c.w += w * ring;
-      c.j0 += w * ex2 * ring;
-      c.j1 += w * ex2 * z * ring;
+      c.w += bvf_weight(r) * ring;
+      c.j0 += wd * ex2 * ring;
+      c.j1 += wd * ex2 * z * ring;
     }
   }
   return c;
@@ -41,13 +42,18 @@ CapIntegrals cap_integrals(double h) {
 
 }  // namespace
 
+double flat_wall_phi(double h) {
+  const double x = std::max(0.0, h);
+  if (x >= 1.0) return 0.0;
+  const double x2 = x * x, x3 = x2 * x, x5 = x3 * x2, x6 = x5 * x, x7 = x6 * x;
+  return 0.5 - 21.0 / 16 * x + 35.0 / 16 * x3 - 63.0 / 16 * x5 + 3.5 * x6 - 15.0 / 16 * x7;
+}
+
 FlatWallRelation flat_wall_relation(double h) {
-  // int_sphere (1 - r)^2 dV = 4 pi (1/3 - 1/2 + 1/5) = 4 pi / 30.
-  const double whole = 4.0 * kPi / 30.0;
   FlatWallRelation f;
   if (h >= 1.0) return f;
   const CapIntegrals c = cap_integrals(std::max(h, 0.0));
-  f.phi = c.w / whole;
+  f.phi = c.w;  // the kernel integrates to 1 over the ball: no normalisation needed
   f.kappa = h > 0 ? c.j1 / (h * c.j0) : HUGE_VAL;
   return f;
 }

@@ -262,6 +262,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (scene.model.wall_model.enabled) {
     const sim::WallModelSpec& w = scene.model.wall_model;
     summary["walls"] = {{"model", "li2018"},
+                        {"wall_density", w.wall_density},
                         {"penetration_threshold", w.penetration_threshold},
                         {"reflection", sim::to_string(w.reflection)},
                         {"slip_factor", w.slip_factor},

@@ -17,10 +17,12 @@ for lib in $(ldd build-gpu/bin/rockflow | awk '/tomlplusplus/ {print $3}'); do
   cp -L "$lib" .carry/gpu/lib/
 done
 # Side-by-side variants for benchmarks: VARIANTS="name:-DDEFINE ..." builds rockflow once more per
-# variant with the extra CUDA definition (e.g. VARIANTS="inplace:-DMESOROCK_NO_NEIGHBOUR_STASH").
+# variant with the extra CUDA definitions, comma-separated
+# (e.g. VARIANTS="inplace:-DMESOROCK_NO_NEIGHBOUR_STASH,-DMESOROCK_NO_PACKED_NEIGHBOURS").
 for spec in ${VARIANTS:-}; do
   name=${spec%%:*}
   flags=${spec#*:}
+  flags=${flags//,/ }
   cmake -S . -B "build-gpu-$name" -G Ninja -DCMAKE_BUILD_TYPE=Release -DMESOROCK_BUILD_ROCKPREP=OFF \
     -DMESOROCK_ENABLE_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=90 -DCMAKE_CUDA_FLAGS="$flags" >/dev/null
   cmake --build "build-gpu-$name" --parallel "$(nproc)" --target rockflow

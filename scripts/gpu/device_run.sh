@@ -42,7 +42,7 @@ if [ "$mode" = perf ]; then
   # The main binary at every cell-list resolution, the variants at the default one.
   for exe in $bin/rockflow $bin/rockflow-*; do
     [ -x "$exe" ] || continue
-    cells="2"
+    cells=${VARIANT_CELLS:-1}
     [ "$exe" = "$bin/rockflow" ] && cells=${CELLS:-"1 2 3"}
     for m in $cells; do
       for p in "porous 2100000 200" "bulk 1000000 200" "porous 16000000 100" "bulk 16000000 100"; do

@@ -43,7 +43,9 @@ template <class C, class T>
 ms::PairForce<double> force_between(PairFixture& f, int i, int j) {
   const auto v = f.view();
   const double dx = f.x[i] - f.x[j], dy = f.y[i] - f.y[j], dz = f.z[i] - f.z[j];
-  return ms::pair_force<double, C, T>(v, i, j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+  return ms::pair_force<double, C, T>(v, ms::pair_side<double, C, T>(v, i),
+                                      ms::pair_side<double, C, T>(v, j), dx, dy, dz,
+                                      dx * dx + dy * dy + dz * dz);
 }
 
 using MDPD = ms::ConservativeMDPD<ms::DensityKernelWarren>;
