@@ -90,6 +90,9 @@ CaseResult run_viscosity_case(const ValidateOptions& o);
 // The wall issue's cases (validation_walls.cpp).
 CaseResult run_poiseuille_walls_case(const ValidateOptions& o);
 CaseResult run_no_penetration_case(const ValidateOptions& o);
+// The two-fluid cases (validation_two_fluid.cpp).
+CaseResult run_interfacial_tension_case(const ValidateOptions& o);
+CaseResult run_contact_angle_case(const ValidateOptions& o);
 const ValidationCase* find_validation_case(const std::string& name);
 
 // Text table and the JSON object of the --json flag.

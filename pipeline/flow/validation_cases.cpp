@@ -225,6 +225,12 @@ const std::vector<ValidationCase>& validation_cases() {
        run_poiseuille_walls_case},
       {"no-penetration", "fluid driven through a grain pack for 10,000 steps stays out of the solid",
        run_no_penetration_case},
+      {"interfacial-tension",
+       "two-fluid slabs (2017 paper): gamma_WV and gamma_WN rising with A_WN from -40 to -5",
+       run_interfacial_tension_case},
+      {"contact-angle",
+       "liquid plug in a slit of frozen walls (2020 paper): contact angle vs A_SL (calibration)",
+       run_contact_angle_case},
   };
   return cases;
 }
