@@ -603,12 +603,47 @@ void read_walls(const Context& c, Table& top, Scene& s) {
   t.finish();
 }
 
+// [[virtual_walls]]: planes that keep some types on one side until a step (the 2020 paper's
+// virtual wall at the face of the pore block, removed when flooding starts).
+void read_virtual_walls(const Context& c, Table& top, Scene& s) {
+  if (!top.get("virtual_walls")) return;
+  const auto blocks = top.require_blocks("virtual_walls");
+  if (blocks.size() > static_cast<size_t>(sim::kMaxVirtualWalls))
+    fail(c, "virtual_walls",
+         "at most " + std::to_string(sim::kMaxVirtualWalls) + " blocks (got " +
+             std::to_string(blocks.size()) + ")");
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Table t(c, *blocks[i], indexed("virtual_walls", i),
+            {"axis", "position", "types", "keep", "until_step"});
+    sim::VirtualWallSpec w;
+    w.axis = axis_at(c, t.require("axis"), t.key("axis"));
+    w.position = t.require_number("position");
+    const double lo = s.box.lo[static_cast<size_t>(w.axis)];
+    const double hi = s.box.hi[static_cast<size_t>(w.axis)];
+    if (!(w.position > lo && w.position < hi))
+      fail(c, t.key("position"), "must lie strictly inside the box (" + num(lo) + " to " +
+                                     num(hi) + ", got " + num(w.position) + ")");
+    const auto names = type_names_at(c, s, t);
+    if (names.empty()) fail(c, t.key("types"), "missing: name the types the wall keeps back");
+    for (const auto& n : names) w.types |= 1u << s.model.type_index(n);
+    w.keep_below = choice_at<bool>(c, t.require("keep"), t.key("keep"),
+                                   {{"below", true}, {"above", false}});
+    const std::int64_t until = t.require_integer("until_step");
+    if (until < 0)
+      fail(c, t.key("until_step"), "must be >= 0 (got " + std::to_string(until) + ")");
+    w.until_step = static_cast<std::uint64_t>(until);
+    t.finish();
+    s.model.virtual_walls.push_back(w);
+  }
+}
+
 void read_output(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("output");
   if (!tbl) return;
   Table t(
       c, *tbl, "output",
-      {"thermo_every", "snapshot_every", "final_snapshot", "average_stages", "profiles", "fields"});
+      {"thermo_every", "snapshot_every", "final_snapshot", "average_stages", "profiles", "fields",
+       "regions"});
   for (auto [key, target] : {std::pair{"thermo_every", &s.output.thermo_every},
                              std::pair{"snapshot_every", &s.output.snapshot_every}}) {
     if (auto v = t.integer(key)) {
@@ -667,6 +702,41 @@ void read_output(const Context& c, Table& top, Scene& s) {
     spec.types = type_names_at(c, s, f);
     f.finish();
     s.output.fields = std::move(spec);
+  }
+  if (const toml::node* n = t.get("regions")) {
+    const toml::array* a = n->as_array();
+    if (!a || !a->is_array_of_tables())
+      fail(c, "output.regions",
+           "must be an array of tables ([[output.regions]]) (got " + describe(*n) + ")");
+    std::set<std::string> region_names;
+    for (size_t i = 0; i < a->size(); ++i) {
+      const std::string at = indexed("output.regions", i);
+      Table r(c, *a->get(i)->as_table(), at, {"name", "lo", "hi", "every", "types", "saturation_of"});
+      RegionOutputSpec spec;
+      spec.name = r.string("name").value_or("region" + std::to_string(i + 1));
+      if (spec.name.empty() || !region_names.insert(spec.name).second)
+        fail(c, r.key("name"), "region names must be unique and non-empty");
+      for (char ch : spec.name)
+        if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-'))
+          fail(c, r.key("name"), "may contain only letters, digits, '_' and '-'");
+      spec.lo = r.require_vec3("lo");
+      spec.hi = r.require_vec3("hi");
+      for (size_t k = 0; k < 3; ++k)
+        if (!(spec.hi[k] > spec.lo[k]))
+          fail(c, indexed(at + ".hi", k), "must be greater than lo (got " + num(spec.hi[k]) + ")");
+      spec.every = positive_integer(c, r, "every", 100);
+      spec.types = type_names_at(c, s, r);
+      if (spec.types.empty())
+        for (const auto& ty : s.model.types)
+          if (!ty.frozen) spec.types.push_back(ty.name);
+      if (auto sat = r.string("saturation_of")) {
+        if (std::find(spec.types.begin(), spec.types.end(), *sat) == spec.types.end())
+          fail(c, r.key("saturation_of"), "must be one of the region's types (got " + in_quotes(*sat) + ")");
+        spec.saturation_of = *sat;
+      }
+      r.finish();
+      s.output.regions.push_back(std::move(spec));
+    }
   }
   for (const auto& p : s.output.profiles) {
     if (p.name.empty() || p.name == "fields" || !names.insert(p.name).second)
@@ -742,8 +812,8 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   s.path = path_for_messages;
   s.source_text = text;
   Table top(c, root, "",
-            {"name", "seed", "precision", "box", "model", "types", "pairs", "walls", "init", "run",
-             "output", "units"});
+            {"name", "seed", "precision", "box", "model", "types", "pairs", "walls",
+             "virtual_walls", "init", "run", "output", "units"});
   const std::string stem = path_for_messages.stem().string();
   s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
   if (s.name.empty()) fail(c, "name", "must not be empty");
@@ -760,6 +830,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   read_types(c, top, s);
   read_pairs(c, top, s);
   read_walls(c, top, s);
+  read_virtual_walls(c, top, s);
   read_init(c, top, s);
   read_stages(c, top, s);
   read_output(c, top, s);

@@ -41,6 +41,16 @@ struct BinnedOutputSpec {
   std::vector<std::string> types;     // counted types; empty = every mobile type
 };
 
+// A box region whose particles are counted per type every `every` steps, with the flow rate
+// through it (regions.csv), and optionally the saturation of one type (saturation.csv).
+struct RegionOutputSpec {
+  std::string name;
+  std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  std::uint64_t every = 100;
+  std::vector<std::string> types;  // counted types, each on its own; empty = every mobile type
+  std::string saturation_of;       // empty, or the counted type whose share is the saturation
+};
+
 struct OutputSpec {
   std::uint64_t thermo_every = 100;  // rows of thermo.csv; 0 = off
   std::uint64_t snapshot_every = 0;  // HDF5 snapshots; 0 = only the final state
@@ -49,6 +59,7 @@ struct OutputSpec {
   std::vector<std::string> average_stages;
   std::vector<BinnedOutputSpec> profiles;
   std::optional<BinnedOutputSpec> fields;
+  std::vector<RegionOutputSpec> regions;
 };
 
 // Physical scale of the reduced units, recorded with every output when given ([units]).

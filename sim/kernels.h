@@ -52,6 +52,7 @@ struct StepView {
   Real body_force_midplane = 0;      // its sign changes here (ReversedBodyForce)
   std::uint32_t frozen_mask = 0;     // bit t set: type t never moves
   WallModelView<Real> walls;         // read only by the wall-model pass variants
+  VirtualWalls<Real> virtual_walls;  // planes that keep some types on one side until a step
 
   Real rd = Real(0.75);
   Real dt = Real(0.01);
@@ -393,6 +394,31 @@ MESO_HD MESO_INLINE void apply_boundary(const StepView<Real>& v, int i, Real* po
   pos[i] = p;
 }
 
+// Virtual walls: a plane that keeps the particles of some types on one side until a given step
+// (the 2020 paper's wall at the face of the pore block, removed when flooding starts). A blocked
+// particle found on the wrong side after its drift is mirrored back, its normal velocity (and
+// v~) reversed. A scene without virtual walls has count = 0: one uniform compare per particle
+// in the drift, nothing in the pair loop.
+template <class Real, bool kVelocityEstimate>
+MESO_HD MESO_INLINE void apply_virtual_walls(const StepView<Real>& v, int i) {
+  const VirtualWalls<Real>& w = v.virtual_walls;
+  for (int k = 0; k < w.count; ++k) {
+    if (v.step >= w.until_step[k] || !((w.type_mask[k] >> v.type[i]) & 1u)) continue;
+    const int a = w.axis[k];
+    Real* pos = a == 0 ? v.x : (a == 1 ? v.y : v.z);
+    const Real d = pos[i] - w.position[k];
+    if (w.keep_below[k] ? !(d >= Real(0)) : !(d < Real(0))) continue;
+    pos[i] = w.position[k] - d;
+    if (w.keep_below[k] && !(pos[i] < w.position[k])) pos[i] = w.position[k] - Real(1e-4);
+    Real* vel = a == 0 ? v.vx : (a == 1 ? v.vy : v.vz);
+    vel[i] = -vel[i];
+    if constexpr (kVelocityEstimate) {
+      Real* est = a == 0 ? v.vex : (a == 1 ? v.vey : v.vez);
+      est[i] = -est[i];
+    }
+  }
+}
+
 // First half: v~ = v + lambda dt f; v += dt/2 f; x += dt v; boundaries.
 // v~ feeds only the dissipative force: without a thermostat (kVelocityEstimate false) it is
 // neither computed nor stored.
@@ -416,6 +442,7 @@ MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
   apply_boundary<Real, kVelocityEstimate>(v, i, v.x, v.vx, v.vex, 0);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
+  apply_virtual_walls<Real, kVelocityEstimate>(v, i);
 }
 
 // Second half: v += dt/2 f(t + dt).
@@ -448,6 +475,7 @@ MESO_HD MESO_INLINE void apply_penetration_correction(const StepView<Real>& v, i
   apply_boundary<Real, kVelocityEstimate>(v, i, v.x, v.vx, v.vex, 0);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
+  apply_virtual_walls<Real, kVelocityEstimate>(v, i);
 }
 
 // ---------------------------------------------------------------------------------------------

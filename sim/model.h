@@ -54,6 +54,15 @@ struct WallModelSpec {
   double max_dissipation_factor = 8.2;
 };
 
+// A plane that keeps the particles of some types on one side until a step (sim/kernels.h).
+struct VirtualWallSpec {
+  int axis = 0;
+  double position = 0;
+  std::uint32_t types = 0;  // bit t: type t is kept on its side
+  bool keep_below = true;   // the types stay at coordinates below `position` (else above)
+  std::uint64_t until_step = 0;  // active while the step is below this
+};
+
 struct Model {
   std::vector<TypeSpec> types;
   std::vector<PairSpec> pairs;  // ntypes x ntypes, symmetric
@@ -68,6 +77,7 @@ struct Model {
   std::uint64_t seed = 1;
   Precision precision = Precision::Double;
   WallModelSpec wall_model;
+  std::vector<VirtualWallSpec> virtual_walls;  // at most kMaxVirtualWalls
 
   // The wall types of the wall model: the given ones, or every frozen type.
   std::uint32_t wall_mask() const {

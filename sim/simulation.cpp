@@ -86,6 +86,18 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
     if (!m.thermostat)
       throw ConfigError("the wall model needs the thermostat (its no-slip condition is a dissipation)");
   }
+  if (m.virtual_walls.size() > static_cast<size_t>(kMaxVirtualWalls))
+    throw ConfigError("at most " + std::to_string(kMaxVirtualWalls) + " virtual walls");
+  for (size_t k = 0; k < m.virtual_walls.size(); ++k) {
+    const VirtualWallSpec& w = m.virtual_walls[k];
+    const std::string name = "virtual wall " + std::to_string(k + 1);
+    if (w.axis < 0 || w.axis > 2) throw ConfigError(name + ": axis must be 0, 1 or 2");
+    check_finite(w.position, name + " position");
+    const double lo = box.lo[static_cast<size_t>(w.axis)], hi = box.hi[static_cast<size_t>(w.axis)];
+    if (!(w.position > lo && w.position < hi))
+      throw ConfigError(name + ": position must lie inside the box");
+    if (w.types == 0) throw ConfigError(name + ": blocks no type");
+  }
   const size_t n = p.size();
   if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
       p.vz.size() != n || p.type.size() != n || p.id.size() != n)
@@ -108,6 +120,16 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
       if (c[a] < box.lo[a] || c[a] > box.hi[a]) {
         std::ostringstream s;
         s << "particle " << p.id[i] << " lies outside the box";
+        throw ConfigError(s.str());
+      }
+    }
+    for (size_t k = 0; k < m.virtual_walls.size(); ++k) {
+      const VirtualWallSpec& w = m.virtual_walls[k];
+      if (w.until_step == 0 || !((w.types >> p.type[i]) & 1u)) continue;
+      const double d = c[w.axis] - w.position;
+      if (w.keep_below ? d >= 0 : d < 0) {
+        std::ostringstream s;
+        s << "particle " << p.id[i] << " starts on the blocked side of virtual wall " << k + 1;
         throw ConfigError(s.str());
       }
     }
@@ -161,6 +183,15 @@ class SimulationImpl final : public Simulation {
       s.walls.entries = kKappaEntries;
       s.kappa.assign(table.begin(), table.end());
       s.bvf.assign(p.size(), Real(0));
+    }
+    s.virtual_walls.count = static_cast<int>(model.virtual_walls.size());
+    for (size_t k = 0; k < model.virtual_walls.size(); ++k) {
+      const VirtualWallSpec& w = model.virtual_walls[k];
+      s.virtual_walls.axis[k] = w.axis;
+      s.virtual_walls.position[k] = static_cast<Real>(w.position);
+      s.virtual_walls.type_mask[k] = w.types;
+      s.virtual_walls.keep_below[k] = w.keep_below;
+      s.virtual_walls.until_step[k] = w.until_step;
     }
     s.body_force_axis = model.body_force_axis;
     s.body_force_midplane =

@@ -29,6 +29,7 @@ struct HostState {
   std::vector<Real> body_force;         // ntypes x 3
   std::uint32_t frozen_mask = 0;
   WallModelView<Real> walls;  // its kappa pointer is set by view() (host) or the engine (device)
+  VirtualWalls<Real> virtual_walls;
   std::vector<Real> kappa;    // the wall model's dissipation table
   int ntypes = 0;
   int body_force_axis = 2;
@@ -63,6 +64,7 @@ struct HostState {
     v.ntypes = ntypes;
     v.body_force = body_force.data();
     v.frozen_mask = frozen_mask;
+    v.virtual_walls = virtual_walls;
     v.body_force_axis = body_force_axis;
     v.body_force_midplane = body_force_midplane;
     v.rd = rd;

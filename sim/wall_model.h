@@ -107,6 +107,18 @@ constexpr double kMinWallDistance = 0.025;
 // kappa at `entries` equally spaced phi in [0, phi_max], capped at kappa_max.
 std::vector<double> tabulate_kappa(int entries, double phi_max, double kappa_max);
 
+// Virtual walls (sim/kernels.h apply_virtual_walls), device-copyable: at most kMaxVirtualWalls.
+constexpr int kMaxVirtualWalls = 4;
+template <class Real>
+struct VirtualWalls {
+  int count = 0;
+  int axis[kMaxVirtualWalls] = {0, 0, 0, 0};
+  Real position[kMaxVirtualWalls] = {0, 0, 0, 0};
+  std::uint32_t type_mask[kMaxVirtualWalls] = {0, 0, 0, 0};
+  bool keep_below[kMaxVirtualWalls] = {true, true, true, true};
+  std::uint64_t until_step[kMaxVirtualWalls] = {0, 0, 0, 0};
+};
+
 // "Off": no wall model; every member the pass templates read is constexpr.
 struct NoWallModel {
   static constexpr bool enabled = false;

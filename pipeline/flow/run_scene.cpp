@@ -80,6 +80,66 @@ struct ScalarSeries {
   }
 };
 
+// A region of [[output.regions]] being sampled: one single-bin grid per counted type.
+struct RegionRun {
+  const RegionOutputSpec* spec = nullptr;
+  std::vector<int> types;
+  int saturation_type = -1;  // index into types, or -1
+  sim::BinGrid grid;
+  nlohmann::json last = nlohmann::json::object();  // the last sample, for summary.json
+};
+
+std::vector<RegionRun> make_regions(const Scene& scene) {
+  std::vector<RegionRun> out;
+  for (const auto& spec : scene.output.regions) {
+    RegionRun r;
+    r.spec = &spec;
+    for (const auto& name : spec.types) {
+      if (name == spec.saturation_of) r.saturation_type = static_cast<int>(r.types.size());
+      r.types.push_back(scene.model.type_index(name));
+    }
+    r.grid.lo = spec.lo;
+    r.grid.hi = spec.hi;
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+// One sample of every region: a regions.csv row per (region, type) with the count, the number
+// density and the mass flow rate along each axis, Q_a = sum v_a / L_a (m = 1; for a thin slab
+// across an axis, the flow rate through that plane); a saturation.csv row per region that names
+// saturation_of: S = n_type / n_counted and the recovery 1 - S.
+void sample_regions(sim::Simulation& sim, const Scene& scene, std::vector<RegionRun>& regions,
+                    std::uint64_t step, double time, const std::string& stage,
+                    std::ostream& rows, std::ostream& saturation) {
+  for (auto& r : regions) {
+    double counted = 0, of_type = 0;
+    const double volume = r.grid.bin_volume();
+    nlohmann::json per_type = nlohmann::json::object();
+    for (size_t k = 0; k < r.types.size(); ++k) {
+      r.grid.type_mask = 1u << r.types[k];
+      const std::vector<double> sums = sim.bin_sums(r.grid);
+      const double n = sums[sim::kBinCount];
+      double q[3];
+      for (int a = 0; a < 3; ++a) q[a] = sums[static_cast<size_t>(sim::kBinVx + a)] / r.grid.width(a);
+      const std::string& name = scene.model.types[static_cast<size_t>(r.types[k])].name;
+      rows << step << "," << time << "," << stage << "," << r.spec->name << "," << name << ","
+           << n << "," << n / volume << "," << q[0] << "," << q[1] << "," << q[2] << "\n";
+      per_type[name] = {{"count", n}, {"flow_rate", {q[0], q[1], q[2]}}};
+      counted += n;
+      if (static_cast<int>(k) == r.saturation_type) of_type = n;
+    }
+    r.last = {{"step", step}, {"types", per_type}};
+    if (r.saturation_type >= 0) {
+      const double sat = counted > 0 ? of_type / counted : 0.0;
+      saturation << step << "," << time << "," << stage << "," << r.spec->name << "," << sat << ","
+                 << 1.0 - sat << "," << counted << "\n";
+      r.last["saturation"] = sat;
+      r.last["recovery"] = 1.0 - sat;
+    }
+  }
+}
+
 std::string step_name(std::uint64_t step) {
   std::ostringstream s;
   s << "step_" << std::setw(9) << std::setfill('0') << step;
@@ -127,6 +187,33 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz\n";
     thermo << std::setprecision(10);
   }
+  // regions.csv and saturation.csv grow like thermo.csv, under temporary names.
+  std::vector<RegionRun> regions = make_regions(scene);
+  const fs::path regions_path = o.out_dir / "regions.csv";
+  const fs::path saturation_path = o.out_dir / "saturation.csv";
+  std::ofstream region_rows, saturation_rows;
+  bool any_saturation = false;
+  for (const auto& r : regions) any_saturation = any_saturation || r.saturation_type >= 0;
+  if (!regions.empty()) {
+    region_rows.open(temporary_path_for(regions_path));
+    if (!region_rows) throw IoError(regions_path.string() + ": cannot open for writing");
+    region_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                << scene.path.string()
+                << ", reduced units; flow_rate_a = sum v_a / L_a over the region (m = 1)\n";
+    region_rows << "step,time,stage,region,type,count,number_density,flow_rate_x,flow_rate_y,"
+                   "flow_rate_z\n";
+    region_rows << std::setprecision(10);
+    if (any_saturation) {
+      saturation_rows.open(temporary_path_for(saturation_path));
+      if (!saturation_rows) throw IoError(saturation_path.string() + ": cannot open for writing");
+      saturation_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                      << scene.path.string()
+                      << ": saturation = share of the saturation_of type among the region's "
+                         "counted types; recovery = 1 - saturation\n";
+      saturation_rows << "step,time,stage,region,saturation,recovery,counted\n";
+      saturation_rows << std::setprecision(10);
+    }
+  }
   std::vector<BinnedRun> binned;
   for (const auto& p : scene.output.profiles) binned.push_back(make_binned(scene, p));
   if (scene.output.fields) binned.push_back(make_binned(scene, *scene.output.fields));
@@ -136,6 +223,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   std::uint64_t total_steps = 0;
   const auto t_run = Clock::now();
   try {
+    if (!regions.empty())
+      sample_regions(*sim, scene, regions, sim->step(), time, scene.stages.front().name,
+                     region_rows, saturation_rows);
     for (const auto& stage : scene.stages) {
       sim->set_dt(stage.dt);
       const bool averaged = stage_is_averaged(scene, stage.name);
@@ -153,6 +243,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         until_next(scene.output.snapshot_every);
         if (averaged)
           for (const auto& b : binned) until_next(b.spec.every);
+        for (const auto& r : regions) until_next(r.spec->every);
         sim->run(n);
         done += n;
         time += static_cast<double>(n) * stage.dt;
@@ -184,6 +275,18 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         if (averaged)
           for (auto& b : binned)
             if (now % b.spec.every == 0) b.average.add(sim->bin_sums(b.average.grid()));
+        bool region_due = false;
+        for (const auto& r : regions) region_due = region_due || now % r.spec->every == 0;
+        if (region_due) {
+          // Sample only the regions due now (each has its own interval).
+          std::vector<RegionRun> due;
+          for (auto& r : regions)
+            if (now % r.spec->every == 0) due.push_back(r);
+          sample_regions(*sim, scene, due, now, time, stage.name, region_rows, saturation_rows);
+          for (auto& d : due)
+            for (auto& r : regions)
+              if (r.spec == d.spec) r.last = d.last;
+        }
         if (o.progress) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
           const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;
@@ -204,6 +307,10 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   } catch (...) {
     thermo.close();
     fs::remove(thermo_tmp, ec);
+    region_rows.close();
+    saturation_rows.close();
+    fs::remove(temporary_path_for(regions_path), ec);
+    fs::remove(temporary_path_for(saturation_path), ec);
     throw;
   }
   const double run_seconds = std::chrono::duration<double>(Clock::now() - t_run).count();
@@ -211,6 +318,14 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     thermo.close();
     fs::rename(thermo_tmp, thermo_path, ec);
     if (ec) throw IoError(thermo_path.string() + ": cannot rename: " + ec.message());
+  }
+  for (auto [stream, path] : {std::pair{&region_rows, regions_path},
+                              std::pair{&saturation_rows, saturation_path}}) {
+    if (!stream->is_open()) continue;
+    stream->close();
+    if (!*stream) throw IoError(path.string() + ": write failed");
+    fs::rename(temporary_path_for(path), path, ec);
+    if (ec) throw IoError(path.string() + ": cannot rename: " + ec.message());
   }
 
   if (scene.output.final_snapshot) {
@@ -259,6 +374,12 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       {"binned_outputs", binned_json},
       {"units", units_json(units)},
       {"scene", scene.source_text}};
+  if (!regions.empty()) {
+    nlohmann::json rj = nlohmann::json::object();
+    for (const auto& r : regions) rj[r.spec->name] = r.last;
+    summary["regions"] = {{"file", "regions.csv"}, {"last_sample", rj}};
+    if (any_saturation) summary["regions"]["saturation_file"] = "saturation.csv";
+  }
   if (scene.model.wall_model.enabled) {
     const sim::WallModelSpec& w = scene.model.wall_model;
     summary["walls"] = {{"model", "li2018"},

@@ -3,6 +3,8 @@
 // `# expect: <substring>`), both through load_scene and through `rockflow run`; initial
 // particles are built reproducibly from random, lattice and HDF5 blocks.
 #include <gtest/gtest.h>
+
+#include "sim/simulation.h"
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -594,8 +596,10 @@ TEST(Scene, DocsExampleParses) {
   ASSERT_EQ(s.init.size(), 2u);
   ASSERT_EQ(s.stages.size(), 2u);
   const sim::ParticleSet p = build_initial_particles(s);
-  // Lattice: spacing 0.5 -> 24 x 16 x 2 sites; random: llround(6.5 * 12 * 8 * 9).
-  EXPECT_EQ(p.size(), 768u + 5616u);
+  // Lattice: spacing 0.5 -> 24 x 16 x 2 sites; random: llround(6.5 * 10 * 8 * 9).
+  EXPECT_EQ(p.size(), 768u + 4680u);
+  // The example is a runnable scene: the solver accepts it (walls, virtual wall, particles).
+  EXPECT_NO_THROW(sim::make_simulation(s.model, s.box, p, s.stages.front().dt));
 }
 
 TEST(Scene, SampleScenesParse) {
