@@ -637,6 +637,31 @@ void read_virtual_walls(const Context& c, Table& top, Scene& s) {
   }
 }
 
+// [[slabs]]: rigid slabs (pistons) of one type each, moving along an axis under an applied
+// pressure (the 2020 paper's pushing and back-pressure slabs).
+void read_slabs(const Context& c, Table& top, Scene& s) {
+  if (!top.get("slabs")) return;
+  const auto blocks = top.require_blocks("slabs");
+  if (blocks.size() > static_cast<size_t>(sim::kMaxRigidSlabs))
+    fail(c, "slabs", "at most " + std::to_string(sim::kMaxRigidSlabs) + " blocks (got " +
+                         std::to_string(blocks.size()) + ")");
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Table t(c, *blocks[i], indexed("slabs", i), {"type", "axis", "pressure"});
+    sim::RigidSlabSpec r;
+    const std::string name = t.require_string("type");
+    r.type = s.model.type_index(name);
+    if (r.type < 0) fail(c, t.key("type"), "unknown type " + in_quotes(name));
+    if (s.model.types[static_cast<size_t>(r.type)].frozen)
+      fail(c, t.key("type"), "type " + in_quotes(name) + " is frozen (a slab moves)");
+    for (const auto& other : s.model.rigid_slabs)
+      if (other.type == r.type) fail(c, t.key("type"), in_quotes(name) + " is already a slab");
+    r.axis = axis_at(c, t.require("axis"), t.key("axis"));
+    r.applied_pressure = t.require_number("pressure");
+    t.finish();
+    s.model.rigid_slabs.push_back(r);
+  }
+}
+
 void read_output(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("output");
   if (!tbl) return;
@@ -727,8 +752,12 @@ void read_output(const Context& c, Table& top, Scene& s) {
       spec.every = positive_integer(c, r, "every", 100);
       spec.types = type_names_at(c, s, r);
       if (spec.types.empty())
-        for (const auto& ty : s.model.types)
-          if (!ty.frozen) spec.types.push_back(ty.name);
+        for (int ty = 0; ty < s.model.ntypes(); ++ty) {
+          bool slab = false;
+          for (const auto& r : s.model.rigid_slabs) slab = slab || r.type == ty;
+          if (!s.model.types[static_cast<size_t>(ty)].frozen && !slab)
+            spec.types.push_back(s.model.types[static_cast<size_t>(ty)].name);
+        }
       if (auto sat = r.string("saturation_of")) {
         if (std::find(spec.types.begin(), spec.types.end(), *sat) == spec.types.end())
           fail(c, r.key("saturation_of"), "must be one of the region's types (got " + in_quotes(*sat) + ")");
@@ -813,7 +842,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   s.source_text = text;
   Table top(c, root, "",
             {"name", "seed", "precision", "box", "model", "types", "pairs", "walls",
-             "virtual_walls", "init", "run", "output", "units"});
+             "virtual_walls", "slabs", "init", "run", "output", "units"});
   const std::string stem = path_for_messages.stem().string();
   s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
   if (s.name.empty()) fail(c, "name", "must not be empty");
@@ -831,6 +860,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   read_pairs(c, top, s);
   read_walls(c, top, s);
   read_virtual_walls(c, top, s);
+  read_slabs(c, top, s);
   read_init(c, top, s);
   read_stages(c, top, s);
   read_output(c, top, s);

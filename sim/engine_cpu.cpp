@@ -67,17 +67,28 @@ class CpuEngine final : public Engine<Real> {
   void initialize(HostState<Real>& host) override {
     s_ = &host;
     compute_forces();
+    for (size_t k = 0; k < s_->slab_bodies.size(); ++k)
+      slab_set_force(s_->slab_bodies[k], slab_pair_force(static_cast<int>(k)));
   }
 
   void advance(std::uint64_t steps) override {
     ThreadScope scope(threads_);
     for (std::uint64_t k = 0; k < steps; ++k) {
+      for (size_t b = 0; b < s_->slab_bodies.size(); ++b) {
+        slab_half_kick(s_->slab_bodies[b], s_->dt);
+        s_->slab_half_velocity[b] = static_cast<Real>(s_->slab_bodies[b].half_velocity);
+      }
       const StepView<Real> v = s_->view();
       const int n = v.n;
 #pragma omp parallel for schedule(static)
       for (int i = 0; i < n; ++i) kick_drift<Real, Terms::thermostat::enabled>(v, i);
       ++s_->step;
       compute_forces();
+      for (size_t b = 0; b < s_->slab_bodies.size(); ++b) {
+        slab_set_force(s_->slab_bodies[b], slab_pair_force(static_cast<int>(b)));
+        slab_full_kick(s_->slab_bodies[b], s_->dt);
+        s_->slab_velocity[b] = static_cast<Real>(s_->slab_bodies[b].velocity);
+      }
       const StepView<Real> w = s_->view();
 #pragma omp parallel for schedule(static)
       for (int i = 0; i < n; ++i) kick(w, i);
@@ -186,6 +197,15 @@ class CpuEngine final : public Engine<Real> {
       for (int k = 0; k < n; ++k)
         density_of_particle<Real, typename C::density_kernel>(v, k);
     }
+  }
+
+  // Sum over slab k's particles of their force along its axis; a serial loop in storage order, so
+  // the result does not depend on the thread count.
+  double slab_pair_force(int k) const {
+    const StepView<Real> v = s_->view();
+    double sum = 0;
+    for (int i = 0; i < v.n; ++i) sum += slab_force_of(v, i, k);
+    return sum;
   }
 
   // Finds every penetrating particle against the same positions, then applies the corrections.

@@ -20,6 +20,7 @@
 #include "sim/hd.h"
 #include "sim/observables.h"
 #include "sim/pair_terms.h"
+#include "sim/rigid_slabs.h"
 #include "sim/rng.h"
 #include "sim/wall_model.h"
 
@@ -53,6 +54,7 @@ struct StepView {
   std::uint32_t frozen_mask = 0;     // bit t set: type t never moves
   WallModelView<Real> walls;         // read only by the wall-model pass variants
   VirtualWalls<Real> virtual_walls;  // planes that keep some types on one side until a step
+  RigidSlabs<Real> slabs;            // pistons moving as rigid bodies (sim/rigid_slabs.h)
 
   Real rd = Real(0.75);
   Real dt = Real(0.01);
@@ -228,7 +230,9 @@ MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, in
 // sees the same positions (the caller applies the changes).
 template <class Real>
 MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real dv[3]) {
-  if (v.frozen(i) || v.walls.is_wall(v.type[i]) || !(v.bvf[i] > v.walls.phi_c)) return false;
+  if (v.frozen(i) || v.walls.is_wall(v.type[i]) || v.slabs.is_slab(v.type[i]) ||
+      !(v.bvf[i] > v.walls.phi_c))
+    return false;
   Real nx = 0, ny = 0, nz = 0;
   for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
     if (!v.walls.is_wall(v.type[j]) || r2 < coincident_r2<Real>()) return;
@@ -422,9 +426,34 @@ MESO_HD MESO_INLINE void apply_virtual_walls(const StepView<Real>& v, int i) {
 // First half: v~ = v + lambda dt f; v += dt/2 f; x += dt v; boundaries.
 // v~ feeds only the dissipative force: without a thermostat (kVelocityEstimate false) it is
 // neither computed nor stored.
+// A slab particle's velocity (and v~) is its slab's V along the slab's axis.
+template <class Real, bool kVelocityEstimate>
+MESO_HD MESO_INLINE void set_slab_velocity(const StepView<Real>& v, int i, Real V, int axis) {
+  v.vx[i] = axis == 0 ? V : Real(0);
+  v.vy[i] = axis == 1 ? V : Real(0);
+  v.vz[i] = axis == 2 ? V : Real(0);
+  if constexpr (kVelocityEstimate) {
+    v.vex[i] = v.vx[i];
+    v.vey[i] = v.vy[i];
+    v.vez[i] = v.vz[i];
+  }
+}
+
 template <class Real, bool kVelocityEstimate>
 MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
   if (v.frozen(i)) return;
+  if (v.slabs.count > 0 && v.slabs.is_slab(v.type[i])) {
+    const int k = v.slabs.slab_of(v.type[i]);
+    const int a = v.slabs.axis[k];
+    const Real V = v.slabs.half_velocity[k];
+    set_slab_velocity<Real, kVelocityEstimate>(v, i, V, a);
+    Real* pos = a == 0 ? v.x : (a == 1 ? v.y : v.z);
+    pos[i] += v.dt * V;
+    Real* vel = a == 0 ? v.vx : (a == 1 ? v.vy : v.vz);
+    Real* est = a == 0 ? v.vex : (a == 1 ? v.vey : v.vez);
+    apply_boundary<Real, kVelocityEstimate>(v, i, pos, vel, est, a);
+    return;
+  }
   const Real dt = v.dt;
   const Real half = Real(0.5) * dt;
   if constexpr (kVelocityEstimate) {
@@ -449,6 +478,11 @@ MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
 template <class Real>
 MESO_HD MESO_INLINE void kick(const StepView<Real>& v, int i) {
   if (v.frozen(i)) return;
+  if (v.slabs.count > 0 && v.slabs.is_slab(v.type[i])) {
+    const int k = v.slabs.slab_of(v.type[i]);
+    set_slab_velocity<Real, false>(v, i, v.slabs.velocity[k], v.slabs.axis[k]);
+    return;
+  }
   const Real half = Real(0.5) * v.dt;
   v.vx[i] += half * v.fx[i];
   v.vy[i] += half * v.fy[i];
@@ -476,6 +510,15 @@ MESO_HD MESO_INLINE void apply_penetration_correction(const StepView<Real>& v, i
   apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
   apply_virtual_walls<Real, kVelocityEstimate>(v, i);
+}
+
+// Particle i's force along slab k's axis if it belongs to slab k, else 0 (the rigid-body
+// reduction sums it over all particles).
+template <class Real>
+MESO_HD MESO_INLINE Real slab_force_of(const StepView<Real>& v, int i, int k) {
+  if (v.type[i] != v.slabs.type[k]) return Real(0);
+  const int a = v.slabs.axis[k];
+  return a == 0 ? v.fx[i] : (a == 1 ? v.fy[i] : v.fz[i]);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/rigid_slabs.h"
 #include "sim/wall_model.h"
 
 namespace mesorock::sim {
@@ -63,6 +64,14 @@ struct VirtualWallSpec {
   std::uint64_t until_step = 0;  // active while the step is below this
 };
 
+// A rigid slab (piston) of one type, moving along `axis` under an applied pressure
+// (sim/rigid_slabs.h). P > 0 pushes towards +axis.
+struct RigidSlabSpec {
+  int type = 0;
+  int axis = 0;
+  double applied_pressure = 0;
+};
+
 struct Model {
   std::vector<TypeSpec> types;
   std::vector<PairSpec> pairs;  // ntypes x ntypes, symmetric
@@ -78,6 +87,7 @@ struct Model {
   Precision precision = Precision::Double;
   WallModelSpec wall_model;
   std::vector<VirtualWallSpec> virtual_walls;  // at most kMaxVirtualWalls
+  std::vector<RigidSlabSpec> rigid_slabs;      // at most kMaxRigidSlabs
 
   // The wall types of the wall model: the given ones, or every frozen type.
   std::uint32_t wall_mask() const {

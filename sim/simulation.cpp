@@ -1,5 +1,6 @@
 #include "sim/simulation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -98,6 +99,23 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
       throw ConfigError(name + ": position must lie inside the box");
     if (w.types == 0) throw ConfigError(name + ": blocks no type");
   }
+  if (m.rigid_slabs.size() > static_cast<size_t>(kMaxRigidSlabs))
+    throw ConfigError("at most " + std::to_string(kMaxRigidSlabs) + " rigid slabs");
+  for (size_t k = 0; k < m.rigid_slabs.size(); ++k) {
+    const RigidSlabSpec& r = m.rigid_slabs[k];
+    if (r.type < 0 || r.type >= m.ntypes()) throw ConfigError("rigid slab of an unknown type");
+    const std::string name = "rigid slab " + m.types[static_cast<size_t>(r.type)].name;
+    if (m.types[static_cast<size_t>(r.type)].frozen)
+      throw ConfigError(name + ": a slab type must not be frozen (it moves as a rigid body)");
+    if (m.wall_model.enabled && ((m.wall_mask() >> r.type) & 1u))
+      throw ConfigError(name + ": a slab type cannot also be a wall of the wall model");
+    if (r.axis < 0 || r.axis > 2) throw ConfigError(name + ": axis must be 0, 1 or 2");
+    check_finite(r.applied_pressure, name + " applied pressure");
+    for (size_t q = 0; q < k; ++q)
+      if (m.rigid_slabs[q].type == r.type) throw ConfigError(name + ": listed twice");
+    if (std::count(p.type.begin(), p.type.end(), r.type) == 0)
+      throw ConfigError(name + ": the slab has no particles");
+  }
   const size_t n = p.size();
   if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
       p.vz.size() != n || p.type.size() != n || p.id.size() != n)
@@ -193,6 +211,23 @@ class SimulationImpl final : public Simulation {
       s.virtual_walls.keep_below[k] = w.keep_below;
       s.virtual_walls.until_step[k] = w.until_step;
     }
+    for (const RigidSlabSpec& r : model.rigid_slabs) {
+      const int k = s.slabs.count++;
+      s.slabs.mask |= 1u << r.type;
+      s.slabs.type[k] = r.type;
+      s.slabs.axis[k] = r.axis;
+      RigidSlabBody b;
+      b.type = r.type;
+      b.axis = r.axis;
+      double area = 1;
+      for (int a = 0; a < 3; ++a)
+        if (a != r.axis) area *= box.length(a);
+      b.applied_force = r.applied_pressure * area;
+      b.mass = static_cast<double>(std::count(p.type.begin(), p.type.end(), r.type));
+      s.slab_bodies.push_back(b);
+    }
+    s.slab_half_velocity.assign(s.slab_bodies.size(), Real(0));
+    s.slab_velocity.assign(s.slab_bodies.size(), Real(0));
     s.body_force_axis = model.body_force_axis;
     s.body_force_midplane =
         static_cast<Real>(0.5 * (box.lo[static_cast<size_t>(model.body_force_axis)] +
@@ -298,6 +333,27 @@ class SimulationImpl final : public Simulation {
     return engine_->wall_corrections();
   }
 
+  std::vector<RigidSlabState> rigid_slabs() override {
+    sync();
+    std::vector<RigidSlabState> out;
+    for (const RigidSlabBody& b : state_.slab_bodies) {
+      RigidSlabState r;
+      r.type = model_.types[static_cast<size_t>(b.type)].name;
+      r.axis = b.axis;
+      r.velocity = b.velocity;
+      r.force = b.force;
+      r.applied_force = b.applied_force;
+      r.mass = b.mass;
+      const std::vector<Real>& pos = b.axis == 0 ? state_.x : (b.axis == 1 ? state_.y : state_.z);
+      double sum = 0;
+      for (int i = 0; i < state_.size(); ++i)
+        if (state_.type[i] == b.type) sum += pos[i];
+      r.position = b.mass > 0 ? sum / b.mass : 0;
+      out.push_back(r);
+    }
+    return out;
+  }
+
   std::array<std::vector<double>, 3> forces() override {
     sync();
     return {in_original_order(state_.fx), in_original_order(state_.fy),
@@ -309,7 +365,7 @@ class SimulationImpl final : public Simulation {
     double sum = 0;
     size_t mobile = 0;
     for (int i = 0; i < state_.size(); ++i) {
-      if ((state_.frozen_mask >> state_.type[i]) & 1u) continue;
+      if (((state_.frozen_mask | state_.slabs.mask) >> state_.type[i]) & 1u) continue;
       sum += double(state_.vx[i]) * state_.vx[i] + double(state_.vy[i]) * state_.vy[i] +
              double(state_.vz[i]) * state_.vz[i];
       ++mobile;
@@ -321,7 +377,7 @@ class SimulationImpl final : public Simulation {
     sync();
     std::array<double, 3> m{0, 0, 0};
     for (int i = 0; i < state_.size(); ++i) {
-      if ((state_.frozen_mask >> state_.type[i]) & 1u) continue;
+      if (((state_.frozen_mask | state_.slabs.mask) >> state_.type[i]) & 1u) continue;
       m[0] += state_.vx[i];
       m[1] += state_.vy[i];
       m[2] += state_.vz[i];
@@ -335,7 +391,7 @@ class SimulationImpl final : public Simulation {
     out.volume = box_.volume();
     const double inv_v = 1.0 / out.volume;
     for (int i = 0; i < state_.size(); ++i) {
-      if ((state_.frozen_mask >> state_.type[i]) & 1u) continue;
+      if (((state_.frozen_mask | state_.slabs.mask) >> state_.type[i]) & 1u) continue;
       const double v[3] = {double(state_.vx[i]), double(state_.vy[i]), double(state_.vz[i])};
       out.kinetic[0] += v[0] * v[0];
       out.kinetic[1] += v[1] * v[1];

@@ -51,6 +51,14 @@ struct StressSample {
   }
 };
 
+// One rigid slab now: its type, axis, mean position of its particles along the axis, velocity,
+// total force along the axis (pair forces + the applied P A) and the applied part alone.
+struct RigidSlabState {
+  std::string type;
+  int axis = 0;
+  double position = 0, velocity = 0, force = 0, applied_force = 0, mass = 0;
+};
+
 class Simulation {
  public:
   virtual ~Simulation() = default;
@@ -68,6 +76,8 @@ class Simulation {
   virtual std::vector<double> boundary_volume_fractions() = 0;
   // Fluid particles the wall model has put back out of a wall since the start (0 without it).
   virtual std::uint64_t wall_corrections() const = 0;
+  // The rigid slabs (pistons) now, in the order of Model::rigid_slabs (empty without slabs).
+  virtual std::vector<RigidSlabState> rigid_slabs() = 0;
   // Forces of the last force pass (pair terms + body force; zero on frozen particles).
   virtual std::array<std::vector<double>, 3> forces() = 0;
 

@@ -30,6 +30,10 @@ struct HostState {
   std::uint32_t frozen_mask = 0;
   WallModelView<Real> walls;  // its kappa pointer is set by view() (host) or the engine (device)
   VirtualWalls<Real> virtual_walls;
+  // Rigid slabs: the bodies (double precision) and the velocities the kernels read.
+  RigidSlabs<Real> slabs;
+  std::vector<RigidSlabBody> slab_bodies;
+  std::vector<Real> slab_half_velocity, slab_velocity;
   std::vector<Real> kappa;    // the wall model's dissipation table
   int ntypes = 0;
   int body_force_axis = 2;
@@ -65,6 +69,9 @@ struct HostState {
     v.body_force = body_force.data();
     v.frozen_mask = frozen_mask;
     v.virtual_walls = virtual_walls;
+    v.slabs = slabs;
+    v.slabs.half_velocity = slab_half_velocity.data();
+    v.slabs.velocity = slab_velocity.data();
     v.body_force_axis = body_force_axis;
     v.body_force_midplane = body_force_midplane;
     v.rd = rd;

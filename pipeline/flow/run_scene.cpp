@@ -33,6 +33,7 @@ std::uint32_t type_mask_for(const Scene& scene, const std::vector<std::string>& 
   if (names.empty()) {
     for (int t = 0; t < scene.model.ntypes(); ++t)
       if (!scene.model.types[static_cast<size_t>(t)].frozen) mask |= 1u << t;
+    for (const auto& r : scene.model.rigid_slabs) mask &= ~(1u << r.type);
   } else {
     for (const auto& n : names) mask |= 1u << scene.model.type_index(n);
   }
@@ -214,6 +215,26 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       saturation_rows << std::setprecision(10);
     }
   }
+  // slabs.csv: the rigid slabs at every thermo row.
+  const fs::path slabs_path = o.out_dir / "slabs.csv";
+  std::ofstream slab_rows;
+  if (!scene.model.rigid_slabs.empty() && thermo_every > 0) {
+    slab_rows.open(temporary_path_for(slabs_path));
+    if (!slab_rows) throw IoError(slabs_path.string() + ": cannot open for writing");
+    slab_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+              << scene.path.string()
+              << ": rigid slabs; position = mean coordinate of the slab's particles along its "
+                 "axis; force = pair forces + applied (pressure x cross-section)\n";
+    slab_rows << "step,time,stage,slab,axis,position,velocity,force,applied_force\n";
+    slab_rows << std::setprecision(10);
+  }
+  auto write_slab_rows = [&](std::uint64_t step, double t, const std::string& stage) {
+    if (!slab_rows.is_open()) return;
+    for (const auto& r : sim->rigid_slabs())
+      slab_rows << step << "," << t << "," << stage << "," << r.type << "," << "xyz"[r.axis] << ","
+                << r.position << "," << r.velocity << "," << r.force << "," << r.applied_force
+                << "\n";
+  };
   std::vector<BinnedRun> binned;
   for (const auto& p : scene.output.profiles) binned.push_back(make_binned(scene, p));
   if (scene.output.fields) binned.push_back(make_binned(scene, *scene.output.fields));
@@ -261,6 +282,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           for (double v : total) thermo << "," << v;
           thermo << "," << p[0] << "," << p[1] << "," << p[2] << "\n";
           if (averaged) series.add(T, st);
+          write_slab_rows(now, time, stage.name);
         }
         if (scene.output.snapshot_every > 0 && now % scene.output.snapshot_every == 0) {
           const fs::path dir = o.out_dir / "snapshots";
@@ -309,6 +331,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     fs::remove(thermo_tmp, ec);
     region_rows.close();
     saturation_rows.close();
+    slab_rows.close();
+    fs::remove(temporary_path_for(slabs_path), ec);
     fs::remove(temporary_path_for(regions_path), ec);
     fs::remove(temporary_path_for(saturation_path), ec);
     throw;
@@ -319,8 +343,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     fs::rename(thermo_tmp, thermo_path, ec);
     if (ec) throw IoError(thermo_path.string() + ": cannot rename: " + ec.message());
   }
-  for (auto [stream, path] : {std::pair{&region_rows, regions_path},
-                              std::pair{&saturation_rows, saturation_path}}) {
+  for (auto [stream, path] :
+       {std::pair{&region_rows, regions_path}, std::pair{&saturation_rows, saturation_path},
+        std::pair{&slab_rows, slabs_path}}) {
     if (!stream->is_open()) continue;
     stream->close();
     if (!*stream) throw IoError(path.string() + ": write failed");
@@ -374,6 +399,18 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       {"binned_outputs", binned_json},
       {"units", units_json(units)},
       {"scene", scene.source_text}};
+  if (!scene.model.rigid_slabs.empty()) {
+    nlohmann::json sj = nlohmann::json::array();
+    for (const auto& r : sim->rigid_slabs())
+      sj.push_back({{"type", r.type},
+                    {"axis", std::string(1, "xyz"[r.axis])},
+                    {"position", r.position},
+                    {"velocity", r.velocity},
+                    {"force", r.force},
+                    {"applied_force", r.applied_force},
+                    {"particles", r.mass}});
+    summary["slabs"] = sj;
+  }
   if (!regions.empty()) {
     nlohmann::json rj = nlohmann::json::object();
     for (const auto& r : regions) rj[r.spec->name] = r.last;

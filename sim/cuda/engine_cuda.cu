@@ -152,6 +152,49 @@ __global__ void correction_kernel(StepView<Real> v, unsigned int* count) {
 #else
 #define MESOROCK_FORCE_BOUNDS
 #endif
+// Rigid slabs (sim/rigid_slabs.h): the bodies live on the device; a step adds a one-thread half
+// kick, a per-block reduction of the slab particles' forces and a one-block kernel that finishes
+// the sum in a fixed order (so the motion is the same every run) and applies the second kick.
+template <class Real>
+__global__ void slab_half_kick_kernel(RigidSlabBody* bodies, int count, double dt, Real* half) {
+  const int k = threadIdx.x;
+  if (k >= count) return;
+  slab_half_kick(bodies[k], dt);
+  half[k] = static_cast<Real>(bodies[k].half_velocity);
+}
+
+template <class Real>
+__global__ void slab_partials_kernel(StepView<Real> v, double* partials) {
+  using BlockReduce = cub::BlockReduce<double, kBlock>;
+  __shared__ typename BlockReduce::TempStorage temp;
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  for (int k = 0; k < v.slabs.count; ++k) {
+    const double f = i < v.n ? static_cast<double>(slab_force_of(v, i, k)) : 0.0;
+    const double sum = BlockReduce(temp).Sum(f);
+    if (threadIdx.x == 0) partials[static_cast<size_t>(k) * gridDim.x + blockIdx.x] = sum;
+    __syncthreads();
+  }
+}
+
+template <class Real>
+__global__ void slab_finish_kernel(const double* partials, int blocks, RigidSlabBody* bodies,
+                                   int count, double dt, bool kick, Real* velocity) {
+  using BlockReduce = cub::BlockReduce<double, 256>;
+  __shared__ typename BlockReduce::TempStorage temp;
+  for (int k = 0; k < count; ++k) {
+    double part = 0;
+    for (int b = threadIdx.x; b < blocks; b += blockDim.x)
+      part += partials[static_cast<size_t>(k) * blocks + b];
+    const double sum = BlockReduce(temp).Sum(part);
+    if (threadIdx.x == 0) {
+      slab_set_force(bodies[k], sum);
+      if (kick) slab_full_kick(bodies[k], dt);
+      velocity[k] = static_cast<Real>(bodies[k].velocity);
+    }
+    __syncthreads();
+  }
+}
+
 template <class Real, class C, class T, class B, class W>
 __global__ void MESOROCK_FORCE_BOUNDS force_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -247,17 +290,37 @@ class CudaEngine final : public Engine<Real> {
     sort_temp_.resize(temp);
     step_ = host.step;
     dt_ = host.dt;
+    nslabs_ = static_cast<int>(host.slab_bodies.size());
+    if (nslabs_ > 0) {
+      slab_bodies_.upload(host.slab_bodies);
+      slab_half_velocity_.upload(host.slab_half_velocity);
+      slab_velocity_.upload(host.slab_velocity);
+      slab_partials_.resize(static_cast<size_t>(nslabs_) * blocks_for(n));
+    }
     compute_forces();
+    if (nslabs_ > 0) slab_forces(false);
     check(cudaDeviceSynchronize(), "initial forces");
+  }
+
+  // The slabs' total forces from the last force pass, then (kick) their second half kick.
+  void slab_forces(bool kick) {
+    const int g = blocks_for(n_);
+    slab_partials_kernel<Real><<<g, kBlock>>>(view(), slab_partials_.get());
+    slab_finish_kernel<Real><<<1, 256>>>(slab_partials_.get(), g, slab_bodies_.get(), nslabs_,
+                                         static_cast<double>(dt_), kick, slab_velocity_.get());
   }
 
   void advance(std::uint64_t steps) override {
     const int g = blocks_for(n_);
     for (std::uint64_t k = 0; k < steps; ++k) {
       mark(0);
+      if (nslabs_ > 0)
+        slab_half_kick_kernel<Real><<<1, kMaxRigidSlabs>>>(
+            slab_bodies_.get(), nslabs_, static_cast<double>(dt_), slab_half_velocity_.get());
       kick_drift_kernel<Real, T::enabled><<<g, kBlock>>>(view());
       ++step_;
       compute_forces();
+      if (nslabs_ > 0) slab_forces(true);
       mark(4);
       kick_kernel<<<g, kBlock>>>(view());
       mark(5);
@@ -281,6 +344,11 @@ class CudaEngine final : public Engine<Real> {
     id_.download(host.id);
     origin_.download(host.origin);
     if constexpr (W::enabled) bvf_.download(host.bvf);
+    if (nslabs_ > 0) {
+      slab_bodies_.download(host.slab_bodies);
+      slab_half_velocity_.download(host.slab_half_velocity);
+      slab_velocity_.download(host.slab_velocity);
+    }
     host.step = step_;
     host.dt = dt_;
   }
@@ -334,6 +402,8 @@ class CudaEngine final : public Engine<Real> {
     v.rho = rho_.get();
     v.bvf = bvf_.get();
     v.walls.kappa = kappa_.get();
+    v.slabs.half_velocity = slab_half_velocity_.get();
+    v.slabs.velocity = slab_velocity_.get();
     v.type = type_.get();
     v.id = id_.get();
     v.cell_start = cell_start_.get();
@@ -468,6 +538,10 @@ class CudaEngine final : public Engine<Real> {
   DeviceBuffer<Real> body_force_;
   DeviceBuffer<double> virial_, bins_;
   DeviceBuffer<Real> bvf_, kappa_;  // wall model only
+  int nslabs_ = 0;                   // rigid slabs only:
+  DeviceBuffer<RigidSlabBody> slab_bodies_;
+  DeviceBuffer<Real> slab_half_velocity_, slab_velocity_;
+  DeviceBuffer<double> slab_partials_;
   DeviceBuffer<unsigned int> count_;
   unsigned int* count_host_ = nullptr;
   std::uint64_t corrected_ = 0;
