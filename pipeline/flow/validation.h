@@ -2,8 +2,12 @@
 // Built-in physics validation cases (`rockflow validate`). Each measured quantity states its
 // reference value, where that comes from, and the tolerance; a case passes when every quantity
 // does.
+#include <chrono>
 #include <cmath>
 #include <functional>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -76,6 +80,21 @@ struct ValidateOptions {
   sim::SimulationOptions sim;
   bool verbose = true;  // progress lines on stderr
 };
+
+// Small helpers the case files share: a progress line on stderr when verbose, a number with
+// `precision` significant digits, and the seconds since t0.
+inline void progress(const ValidateOptions& o, const std::string& what) {
+  if (o.verbose) std::cerr << what << std::endl;
+}
+inline std::string fmt(double v, int precision = 4) {
+  std::ostringstream s;
+  s << std::setprecision(precision) << v;
+  return s.str();
+}
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 
 struct ValidationCase {
   std::string name;

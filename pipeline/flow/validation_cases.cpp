@@ -50,10 +50,6 @@ double vapour_fraction(const sim::ParticleSet& p, const sim::BoxSpec& box) {
   return static_cast<double>(low) / static_cast<double>(counts.size());
 }
 
-void progress(const ValidateOptions& o, const std::string& what) {
-  if (o.verbose) std::cerr << what << std::endl;
-}
-
 BulkMeasurement measure_bulk(const BuiltSystem& s, const ValidateOptions& o, double dt,
                              const Sampling& plan, const std::string& label) {
   auto sim = sim::make_simulation(s.model, s.box, s.particles, dt, o.sim);
@@ -84,12 +80,6 @@ BulkMeasurement measure_bulk(const BuiltSystem& s, const ValidateOptions& o, dou
       << std::setprecision(3) << secs << " s)";
   progress(o, msg.str());
   return m;
-}
-
-std::string fmt(double v, int precision = 4) {
-  std::ostringstream s;
-  s << std::setprecision(precision) << v;
-  return s.str();
 }
 
 // --------------------------------------------------------------------------------------------

@@ -19,20 +19,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-void progress(const ValidateOptions& o, const std::string& what) {
-  if (o.verbose) std::cerr << what << std::endl;
-}
-
-std::string fmt(double v, int precision = 4) {
-  std::ostringstream s;
-  s << std::setprecision(precision) << v;
-  return s.str();
-}
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // --------------------------------------------------------------------------------------------
 // slab: a liquid film in a periodic box elongated in x, vacuum on both sides.
 

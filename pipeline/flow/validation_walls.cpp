@@ -28,20 +28,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-void progress(const ValidateOptions& o, const std::string& what) {
-  if (o.verbose) std::cerr << what << std::endl;
-}
-
-std::string fmt(double v, int precision = 4) {
-  std::ostringstream s;
-  s << std::setprecision(precision) << v;
-  return s.str();
-}
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // The bulk liquid of the viscosity case: A = -40, B = 25, rd = 0.75, gamma = 4.5, rho = 7.
 constexpr double kA = -40, kB = 25, kRd = 0.75, kGamma = 4.5, kRho = 7.0;
 
