@@ -621,16 +621,16 @@ void read_virtual_walls(const Context& c, Table& top, Scene& s) {
     const double lo = s.box.lo[static_cast<size_t>(w.axis)];
     const double hi = s.box.hi[static_cast<size_t>(w.axis)];
     if (!(w.position > lo && w.position < hi))
-      fail(c, t.key("position"), "must lie strictly inside the box (" + num(lo) + " to " +
-                                     num(hi) + ", got " + num(w.position) + ")");
+      fail(c, t.key("position"),
+           "must lie strictly inside the box (" + num(lo) + " to " + num(hi) + ", got " +
+               num(w.position) + ")");
     const auto names = type_names_at(c, s, t);
     if (names.empty()) fail(c, t.key("types"), "missing: name the types the wall keeps back");
     for (const auto& n : names) w.types |= 1u << s.model.type_index(n);
-    w.keep_below = choice_at<bool>(c, t.require("keep"), t.key("keep"),
-                                   {{"below", true}, {"above", false}});
+    w.keep_below =
+        choice_at<bool>(c, t.require("keep"), t.key("keep"), {{"below", true}, {"above", false}});
     const std::int64_t until = t.require_integer("until_step");
-    if (until < 0)
-      fail(c, t.key("until_step"), "must be >= 0 (got " + std::to_string(until) + ")");
+    if (until < 0) fail(c, t.key("until_step"), "must be >= 0 (got " + std::to_string(until) + ")");
     w.until_step = static_cast<std::uint64_t>(until);
     t.finish();
     s.model.virtual_walls.push_back(w);
@@ -643,8 +643,9 @@ void read_slabs(const Context& c, Table& top, Scene& s) {
   if (!top.get("slabs")) return;
   const auto blocks = top.require_blocks("slabs");
   if (blocks.size() > static_cast<size_t>(sim::kMaxRigidSlabs))
-    fail(c, "slabs", "at most " + std::to_string(sim::kMaxRigidSlabs) + " blocks (got " +
-                         std::to_string(blocks.size()) + ")");
+    fail(c, "slabs",
+         "at most " + std::to_string(sim::kMaxRigidSlabs) + " blocks (got " +
+             std::to_string(blocks.size()) + ")");
   for (size_t i = 0; i < blocks.size(); ++i) {
     Table t(c, *blocks[i], indexed("slabs", i), {"type", "axis", "pressure"});
     sim::RigidSlabSpec r;
@@ -665,10 +666,9 @@ void read_slabs(const Context& c, Table& top, Scene& s) {
 void read_output(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("output");
   if (!tbl) return;
-  Table t(
-      c, *tbl, "output",
-      {"thermo_every", "snapshot_every", "final_snapshot", "average_stages", "profiles", "fields",
-       "regions"});
+  Table t(c, *tbl, "output",
+          {"thermo_every", "snapshot_every", "final_snapshot", "average_stages", "profiles",
+           "fields", "regions"});
   for (auto [key, target] : {std::pair{"thermo_every", &s.output.thermo_every},
                              std::pair{"snapshot_every", &s.output.snapshot_every}}) {
     if (auto v = t.integer(key)) {
@@ -736,7 +736,8 @@ void read_output(const Context& c, Table& top, Scene& s) {
     std::set<std::string> region_names;
     for (size_t i = 0; i < a->size(); ++i) {
       const std::string at = indexed("output.regions", i);
-      Table r(c, *a->get(i)->as_table(), at, {"name", "lo", "hi", "every", "types", "saturation_of"});
+      Table r(c, *a->get(i)->as_table(), at,
+              {"name", "lo", "hi", "every", "types", "saturation_of"});
       RegionOutputSpec spec;
       spec.name = r.string("name").value_or("region" + std::to_string(i + 1));
       if (spec.name.empty() || !region_names.insert(spec.name).second)
@@ -760,7 +761,8 @@ void read_output(const Context& c, Table& top, Scene& s) {
         }
       if (auto sat = r.string("saturation_of")) {
         if (std::find(spec.types.begin(), spec.types.end(), *sat) == spec.types.end())
-          fail(c, r.key("saturation_of"), "must be one of the region's types (got " + in_quotes(*sat) + ")");
+          fail(c, r.key("saturation_of"),
+               "must be one of the region's types (got " + in_quotes(*sat) + ")");
         spec.saturation_of = *sat;
       }
       r.finish();

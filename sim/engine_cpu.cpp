@@ -113,9 +113,9 @@ class CpuEngine final : public Engine<Real> {
       VirialSums local;
 #pragma omp for schedule(static)
       for (int k = 0; k < n; ++k) {
-        const auto w = virial_of_particle<Real, typename Terms::conservative,
-                                          typename Terms::thermostat, typename Terms::wall_model>(v,
-                                                                                                  k);
+        const auto w =
+            virial_of_particle<Real, typename Terms::conservative, typename Terms::thermostat,
+                               typename Terms::wall_model>(v, k);
         for (int c = 0; c < 6; ++c) {
           local.conservative[c] += w.conservative[c];
           local.dissipative[c] += w.dissipative[c];
@@ -194,8 +194,7 @@ class CpuEngine final : public Engine<Real> {
       for (int k = 0; k < n; ++k) density_and_bvf_of_particle<Real, K>(v, k);
     } else if constexpr (C::needs_density) {
 #pragma omp parallel for schedule(static)
-      for (int k = 0; k < n; ++k)
-        density_of_particle<Real, typename C::density_kernel>(v, k);
+      for (int k = 0; k < n; ++k) density_of_particle<Real, typename C::density_kernel>(v, k);
     }
   }
 
@@ -234,7 +233,9 @@ class CpuEngine final : public Engine<Real> {
   }
 
  public:
-  std::uint64_t wall_corrections() const override { return corrected_; }
+  std::uint64_t wall_corrections() const override {
+    return corrected_;
+  }
 
  private:
   struct Correction {

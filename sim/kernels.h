@@ -342,16 +342,16 @@ MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i,
   Real fx = 0, fy = 0, fz = 0;
   if (!v.frozen(i)) {
     const PairSide<Real> self = pair_side<Real, Conservative, Thermostat>(v, i);
-    for_each_neighbour_stashed(v, i, stash, Real(1), [&](int j, Real dx, Real dy, Real dz,
-                                                          Real r2) {
-      const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
-          v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
-      if (f.r == Real(0)) return;
-      const Real s = (f.conservative + f.dissipative + f.random) / f.r;
-      fx += s * dx;
-      fy += s * dy;
-      fz += s * dz;
-    });
+    for_each_neighbour_stashed(
+        v, i, stash, Real(1), [&](int j, Real dx, Real dy, Real dz, Real r2) {
+          const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
+              v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
+          if (f.r == Real(0)) return;
+          const Real s = (f.conservative + f.dissipative + f.random) / f.r;
+          fx += s * dx;
+          fy += s * dy;
+          fz += s * dz;
+        });
     if constexpr (BodyForce::enabled) {
       const Real* g = v.body_force + 3 * v.type[i];
       const Real* pos = v.body_force_axis == 0 ? v.x : (v.body_force_axis == 1 ? v.y : v.z);

@@ -59,8 +59,8 @@ struct WallModelSpec {
 struct VirtualWallSpec {
   int axis = 0;
   double position = 0;
-  std::uint32_t types = 0;  // bit t: type t is kept on its side
-  bool keep_below = true;   // the types stay at coordinates below `position` (else above)
+  std::uint32_t types = 0;       // bit t: type t is kept on its side
+  bool keep_below = true;        // the types stay at coordinates below `position` (else above)
   std::uint64_t until_step = 0;  // active while the step is below this
 };
 

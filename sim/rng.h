@@ -28,8 +28,8 @@ MESO_HD MESO_INLINE Real pair_random(std::uint64_t seed, std::uint64_t step, std
   const std::uint64_t hi = id_i < id_j ? id_j : id_i;
   PairPhilox rng;
   PairPhilox::ctr_type ctr = {{static_cast<std::uint32_t>(lo), static_cast<std::uint32_t>(hi),
-                                     static_cast<std::uint32_t>(step),
-                                     static_cast<std::uint32_t>(step >> 32)}};
+                               static_cast<std::uint32_t>(step),
+                               static_cast<std::uint32_t>(step >> 32)}};
   // The high id words go into the key with the seed: ids up to 2^40 stay distinct.
   PairPhilox::key_type key = {
       {static_cast<std::uint32_t>(seed) ^ (static_cast<std::uint32_t>(lo >> 32) << 16),

@@ -85,7 +85,8 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
         throw ConfigError("wall type " + m.types[t].name +
                           " is not frozen (the wall model supports frozen walls only)");
     if (!m.thermostat)
-      throw ConfigError("the wall model needs the thermostat (its no-slip condition is a dissipation)");
+      throw ConfigError(
+          "the wall model needs the thermostat (its no-slip condition is a dissipation)");
   }
   if (m.virtual_walls.size() > static_cast<size_t>(kMaxVirtualWalls))
     throw ConfigError("at most " + std::to_string(kMaxVirtualWalls) + " virtual walls");
@@ -197,7 +198,8 @@ class SimulationImpl final : public Simulation {
       s.walls.inv_wall_density = static_cast<Real>(1.0 / w.wall_density);
       s.walls.slip_factor = static_cast<Real>(w.slip_factor);
       s.walls.phi_max = Real(0.5);
-      const std::vector<double> table = tabulate_kappa(kKappaEntries, 0.5, w.max_dissipation_factor);
+      const std::vector<double> table =
+          tabulate_kappa(kKappaEntries, 0.5, w.max_dissipation_factor);
       s.walls.entries = kKappaEntries;
       s.kappa.assign(table.begin(), table.end());
       s.bvf.assign(p.size(), Real(0));

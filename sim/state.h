@@ -34,7 +34,7 @@ struct HostState {
   RigidSlabs<Real> slabs;
   std::vector<RigidSlabBody> slab_bodies;
   std::vector<Real> slab_half_velocity, slab_velocity;
-  std::vector<Real> kappa;    // the wall model's dissipation table
+  std::vector<Real> kappa;  // the wall model's dissipation table
   int ntypes = 0;
   int body_force_axis = 2;
   Real body_force_midplane = 0;

@@ -67,9 +67,9 @@ inline const char* to_string(WallReflection r) {
 // Device-copyable parameters of the wall model (pointers into host or device memory).
 template <class Real>
 struct WallModelView {
-  std::uint32_t wall_mask = 0;       // bit t set: type t is wall
+  std::uint32_t wall_mask = 0;          // bit t set: type t is wall
   Real inv_wall_density = Real(0.125);  // 1 / n_w
-  Real phi_c = Real(0.5);            // penetration threshold
+  Real phi_c = Real(0.5);               // penetration threshold
   WallReflection reflection = WallReflection::Li2018;
   Real slip_factor = Real(1);   // f: 1 = no slip, 0 = plain fluid-wall dissipation
   const Real* kappa = nullptr;  // kappa(phi) at phi = k / (entries - 1) * phi_max

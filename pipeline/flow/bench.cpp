@@ -92,7 +92,8 @@ std::string format_bench_text(const BenchResult& r) {
   s << std::setprecision(4) << "bench " << r.case_name << ": " << r.particles << " particles x "
     << r.steps << " steps on " << r.backend;
   if (r.threads > 0) s << " (" << r.threads << " threads)";
-  s << ", " << r.precision << " precision, " << r.cells_per_rc << " cells per rc: " << r.seconds << " s, " << r.mps << " MPS/s";
+  s << ", " << r.precision << " precision, " << r.cells_per_rc << " cells per rc: " << r.seconds
+    << " s, " << r.mps << " MPS/s";
   if (r.device_bytes_per_particle > 0)
     s << ", " << r.device_bytes_per_particle << " GPU bytes/particle";
   s << "\n";

@@ -111,8 +111,8 @@ std::vector<RegionRun> make_regions(const Scene& scene) {
 // across an axis, the flow rate through that plane); a saturation.csv row per region that names
 // saturation_of: S = n_type / n_counted and the recovery 1 - S.
 void sample_regions(sim::Simulation& sim, const Scene& scene, std::vector<RegionRun>& regions,
-                    std::uint64_t step, double time, const std::string& stage,
-                    std::ostream& rows, std::ostream& saturation) {
+                    std::uint64_t step, double time, const std::string& stage, std::ostream& rows,
+                    std::ostream& saturation) {
   for (auto& r : regions) {
     double counted = 0, of_type = 0;
     const double volume = r.grid.bin_volume();
@@ -122,10 +122,11 @@ void sample_regions(sim::Simulation& sim, const Scene& scene, std::vector<Region
       const std::vector<double> sums = sim.bin_sums(r.grid);
       const double n = sums[sim::kBinCount];
       double q[3];
-      for (int a = 0; a < 3; ++a) q[a] = sums[static_cast<size_t>(sim::kBinVx + a)] / r.grid.width(a);
+      for (int a = 0; a < 3; ++a)
+        q[a] = sums[static_cast<size_t>(sim::kBinVx + a)] / r.grid.width(a);
       const std::string& name = scene.model.types[static_cast<size_t>(r.types[k])].name;
-      rows << step << "," << time << "," << stage << "," << r.spec->name << "," << name << ","
-           << n << "," << n / volume << "," << q[0] << "," << q[1] << "," << q[2] << "\n";
+      rows << step << "," << time << "," << stage << "," << r.spec->name << "," << name << "," << n
+           << "," << n / volume << "," << q[0] << "," << q[1] << "," << q[2] << "\n";
       per_type[name] = {{"count", n}, {"flow_rate", {q[0], q[1], q[2]}}};
       counted += n;
       if (static_cast<int>(k) == r.saturation_type) of_type = n;
@@ -231,9 +232,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   auto write_slab_rows = [&](std::uint64_t step, double t, const std::string& stage) {
     if (!slab_rows.is_open()) return;
     for (const auto& r : sim->rigid_slabs())
-      slab_rows << step << "," << t << "," << stage << "," << r.type << "," << "xyz"[r.axis] << ","
-                << r.position << "," << r.velocity << "," << r.force << "," << r.applied_force
-                << "\n";
+      slab_rows << step << "," << t << "," << stage << "," << r.type << ","
+                << "xyz"[r.axis] << "," << r.position << "," << r.velocity << "," << r.force << ","
+                << r.applied_force << "\n";
   };
   std::vector<BinnedRun> binned;
   for (const auto& p : scene.output.profiles) binned.push_back(make_binned(scene, p));

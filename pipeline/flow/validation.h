@@ -95,7 +95,6 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-
 struct ValidationCase {
   std::string name;
   std::string summary;

@@ -213,7 +213,8 @@ const std::vector<ValidationCase>& validation_cases() {
        "body-force flow between wall-model walls: slip length, viscosity, density and "
        "temperature at the wall",
        run_poiseuille_walls_case},
-      {"no-penetration", "fluid driven through a grain pack for 10,000 steps stays out of the solid",
+      {"no-penetration",
+       "fluid driven through a grain pack for 10,000 steps stays out of the solid",
        run_no_penetration_case},
       {"interfacial-tension",
        "two-fluid slabs (2017 paper): gamma_WV and gamma_WN rising with A_WN from -40 to -5",

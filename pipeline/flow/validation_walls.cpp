@@ -42,9 +42,8 @@ using SolidDepth = std::function<double(double x, double y, double z)>;
 // fluid and those with 0 < depth <= thickness as frozen wall; deeper ones are dropped. Types:
 // 0 fluid, 1 wall; every pair has the liquid's parameters; the wall model is on.
 BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
-                              const SolidDepth& depth, double thickness,
-                              std::uint64_t equilibrate, std::uint64_t seed,
-                              const ValidateOptions& o) {
+                              const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
+                              std::uint64_t seed, const ValidateOptions& o) {
   BuiltSystem bulk = make_bulk_mdpd(kA, kB, kRd, kGamma, kRho, L, seed, o.density_kernel);
   {
     auto sim = sim::make_simulation(bulk.model, bulk.box, bulk.particles, 0.01, o.sim);
@@ -117,8 +116,8 @@ struct ChannelResult {
 
 ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
   const bool full = o.size == CaseSize::Full;
-  const double w = 1.5;                   // wall thickness, the wall surface is at z = w
-  const double H = full ? 16 : 10;        // channel height between the surfaces
+  const double w = 1.5;             // wall thickness, the wall surface is at z = w
+  const double H = full ? 16 : 10;  // channel height between the surfaces
   const double Lxy = full ? 10 : 6;
   const double L[3] = {Lxy, Lxy, H + 2 * w};
   // Peak shear rate rho g H / (2 eta) = 0.2 (linear response, see the viscosity case).
@@ -137,8 +136,8 @@ ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
     }
   auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
   const auto t0 = Clock::now();
-  progress(o, "poiseuille-walls: " + std::to_string(s.particles.size()) +
-                  " particles, channel " + fmt(H) + " rc, g = " + fmt(g, 3) + ", equilibrating " +
+  progress(o, "poiseuille-walls: " + std::to_string(s.particles.size()) + " particles, channel " +
+                  fmt(H) + " rc, g = " + fmt(g, 3) + ", equilibrating " +
                   std::to_string(equilibrate) + " steps (" + sim->pass_name() + ", " +
                   sim->backend_name() + ")");
   sim->run(equilibrate);
@@ -256,19 +255,16 @@ CaseResult run_poiseuille_walls(const ValidateOptions& o) {
   r.quantities.push_back(judged("slip length (mean of both walls, rc)", slip, c.slip_error, 0.3, 0,
                                 "issue: under 0.3 rc (Li et al. 2018: no slip)",
                                 Comparison::AtMost));
-  r.quantities.push_back(judged("slip length, magnitude (rc)", std::abs(slip), c.slip_error, 0.3,
-                                0, "issue: |slip| under 0.3 rc", Comparison::AtMost));
+  r.quantities.push_back(judged("slip length, magnitude (rc)", std::abs(slip), c.slip_error, 0.3, 0,
+                                "issue: |slip| under 0.3 rc", Comparison::AtMost));
   // 5% of the bulk value, widened by two combined standard errors at the small size, where the
   // channel's own statistical error is comparable to 5%.
   const double eta_sigma = std::hypot(c.eta_error, kBulkViscosityError);
-  const double eta_tol =
-      0.05 * kBulkViscosity + (o.size == CaseSize::Small ? 2 * eta_sigma : 0.0);
-  r.quantities.push_back(judged("viscosity between walls", c.eta, c.eta_error, kBulkViscosity,
-                                eta_tol,
-                                "bulk `viscosity` case, full size: 6.97 +- 0.057; issue: within 5%" +
-                                    std::string(o.size == CaseSize::Small
-                                                    ? " (+ 2 sigma at the small size)"
-                                                    : "")));
+  const double eta_tol = 0.05 * kBulkViscosity + (o.size == CaseSize::Small ? 2 * eta_sigma : 0.0);
+  r.quantities.push_back(
+      judged("viscosity between walls", c.eta, c.eta_error, kBulkViscosity, eta_tol,
+             "bulk `viscosity` case, full size: 6.97 +- 0.057; issue: within 5%" +
+                 std::string(o.size == CaseSize::Small ? " (+ 2 sigma at the small size)" : "")));
   r.quantities.push_back(judged("fluid density next to the wall / bulk",
                                 c.wall_density / c.bulk_density,
                                 c.wall_density_error / c.bulk_density, 1.0, 0.05,
@@ -277,11 +273,10 @@ CaseResult run_poiseuille_walls(const ValidateOptions& o) {
                                 c.wall_temperature / c.bulk_temperature,
                                 c.wall_temperature_error / c.bulk_temperature, 1.0, 0.05,
                                 "issue: within 5% of bulk (first 0.5 rc from each wall surface)"));
-  r.notes.push_back("slip lengths " + fmt(c.slip_low, 3) + " (lower wall), " +
-                    fmt(c.slip_high, 3) + " (upper wall); peak velocity " + fmt(c.u_max, 3) +
-                    "; bulk density " + fmt(c.bulk_density, 4) + ", bulk temperature " +
-                    fmt(c.bulk_temperature, 4) + "; " + std::to_string(c.corrections) +
-                    " wall-model corrections");
+  r.notes.push_back("slip lengths " + fmt(c.slip_low, 3) + " (lower wall), " + fmt(c.slip_high, 3) +
+                    " (upper wall); peak velocity " + fmt(c.u_max, 3) + "; bulk density " +
+                    fmt(c.bulk_density, 4) + ", bulk temperature " + fmt(c.bulk_temperature, 4) +
+                    "; " + std::to_string(c.corrections) + " wall-model corrections");
   std::ostringstream prof;
   prof << "profile z: u, rho, T ->";
   for (size_t k = 0; k < c.z.size(); k += 2)
@@ -366,8 +361,10 @@ CaseResult run_no_penetration(const ValidateOptions& o) {
       if (p.type[i] != 0) continue;
       const double d = depth(p.x[i], p.y[i], p.z[i]);
       c.deepest = std::max(c.deepest, d);
-      if (d > skin) ++c.beyond_skin;
-      else if (d > 0) ++c.within_skin;
+      if (d > skin)
+        ++c.beyond_skin;
+      else if (d > 0)
+        ++c.within_skin;
       c.mean_vx += p.vx[i];
     }
     c.mean_vx /= static_cast<double>(fluid);
@@ -400,12 +397,12 @@ CaseResult run_no_penetration(const ValidateOptions& o) {
   progress(o, "  without the wall model, after " + std::to_string(bare_steps) + " steps: " +
                   std::to_string(without.beyond_skin) + " fluid particles deeper than " +
                   fmt(skin, 2) + " rc, deepest " + fmt(without.deepest, 3) + " rc");
-  r.quantities.push_back(judged(
-      "fluid particles deeper than " + fmt(skin, 2) +
-          " rc in the solid (worst of 10 checks over 10,000 steps)",
-      static_cast<double>(worst_beyond), 0, 0, 0,
-      "issue: zero (Li et al. 2018 predictor-corrector); skin = one wall-particle spacing",
-      Comparison::AtMost));
+  r.quantities.push_back(
+      judged("fluid particles deeper than " + fmt(skin, 2) +
+                 " rc in the solid (worst of 10 checks over 10,000 steps)",
+             static_cast<double>(worst_beyond), 0, 0, 0,
+             "issue: zero (Li et al. 2018 predictor-corrector); skin = one wall-particle spacing",
+             Comparison::AtMost));
   r.quantities.push_back(judged("deepest fluid particle without the wall model after " +
                                     std::to_string(bare_steps) + " steps (rc)",
                                 without.deepest, 0, skin, 0,

@@ -496,9 +496,9 @@ class CudaEngine final : public Engine<Real> {
  public:
   std::size_t device_bytes() const override {
     std::size_t b = 0;
-    for (const DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_, &fx_,
-                                        &fy_, &fz_, &rho_, &scratch_real_, &body_force_, &bvf_,
-                                        &kappa_})
+    for (const DeviceBuffer<Real>* a :
+         {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_, &fx_, &fy_, &fz_, &rho_,
+          &scratch_real_, &body_force_, &bvf_, &kappa_})
       b += a->size() * sizeof(Real);
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_})
       b += a->size() * sizeof(std::int32_t);
@@ -538,7 +538,7 @@ class CudaEngine final : public Engine<Real> {
   DeviceBuffer<Real> body_force_;
   DeviceBuffer<double> virial_, bins_;
   DeviceBuffer<Real> bvf_, kappa_;  // wall model only
-  int nslabs_ = 0;                   // rigid slabs only:
+  int nslabs_ = 0;                  // rigid slabs only:
   DeviceBuffer<RigidSlabBody> slab_bodies_;
   DeviceBuffer<Real> slab_half_velocity_, slab_velocity_;
   DeviceBuffer<double> slab_partials_;

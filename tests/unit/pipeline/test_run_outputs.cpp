@@ -250,7 +250,8 @@ types = ["working"]
     const double step = std::stod(c[0]), count = std::stod(c[5]);
     if (c[3] == "block" && c[4] == "working") {
       ++samples;
-      if (step <= 200) EXPECT_EQ(count, 0.0) << "working fluid crossed the virtual wall at " << step;
+      if (step <= 200)
+        EXPECT_EQ(count, 0.0) << "working fluid crossed the virtual wall at " << step;
       if (step == 800) working_in_block_late = count;
     }
     if (c[3] == "plane" && step > 200) flow_sum += std::stod(c[7]);
@@ -265,7 +266,8 @@ types = ["working"]
   EXPECT_DOUBLE_EQ(sat.rows.front()[static_cast<size_t>(s)], 1.0);
   EXPECT_LT(sat.rows.back()[static_cast<size_t>(s)], 1.0);
   for (const auto& row : sat.rows)
-    EXPECT_NEAR(row[static_cast<size_t>(rec)], 1.0 - row[static_cast<size_t>(s)], 1e-9);  // 10 digits
+    EXPECT_NEAR(row[static_cast<size_t>(rec)], 1.0 - row[static_cast<size_t>(s)],
+                1e-9);  // 10 digits
   const auto summary = nlohmann::json::parse(mesorock::test::read_file(out / "summary.json"));
   EXPECT_TRUE(summary.at("regions").at("last_sample").contains("block"));
   EXPECT_FALSE(fs::exists(out / ".regions.csv.partial"));

@@ -4,8 +4,8 @@
 // particles are built reproducibly from random, lattice and HDF5 blocks.
 #include <gtest/gtest.h>
 
-#include "sim/simulation.h"
 #include <sys/wait.h>
+#include "sim/simulation.h"
 
 #include <algorithm>
 #include <cmath>

@@ -67,7 +67,8 @@ TEST(WallModelTable, ClosedFormFlatWallPhi) {
 // The default cap 8.2 of WallModelSpec is kappa at the authors' floor h = 0.025 rc; their fit
 // 1 + 0.187 (1/h - 1) - 0.093 (1 - h)^3 agrees with the integral to 1% where it matters.
 TEST(WallModelTable, DefaultCapIsKappaAtTheAuthorsFloor) {
-  EXPECT_NEAR(ms::flat_wall_relation(ms::kMinWallDistance).kappa, ms::WallModelSpec{}.max_dissipation_factor,
+  EXPECT_NEAR(ms::flat_wall_relation(ms::kMinWallDistance).kappa,
+              ms::WallModelSpec{}.max_dissipation_factor,
               0.02 * ms::WallModelSpec{}.max_dissipation_factor);
   for (double h : {0.05, 0.1, 0.2, 0.5}) {
     const double fit = 1 + 0.187 * (1 / h - 1) - 0.093 * std::pow(1 - h, 3);
@@ -243,8 +244,9 @@ TEST_P(Walls, FluidPressedOntoAWallLeaksWithoutTheModelAndNotWithIt) {
       if (p.type[i] == fluid && p.z[i] < 1.0) ++deep[with_model];
     if (with_model) EXPECT_GT(sim->wall_corrections(), 0u);
   }
-  std::printf("fluid particles 0.5 rc or more inside the wall: %d without the wall model, %d with\n",
-              deep[0], deep[1]);
+  std::printf(
+      "fluid particles 0.5 rc or more inside the wall: %d without the wall model, %d with\n",
+      deep[0], deep[1]);
   EXPECT_GT(deep[0], 10) << "the set-up must press fluid into an unprotected wall";
   EXPECT_EQ(deep[1], 0) << "fluid particles 0.5 rc or more inside the wall";
 }
