@@ -11,12 +11,8 @@
 
 namespace mesorock::sim {
 
-// Rounds of Philox: 10 is Random123's default (7 already passes BigCrush); MESOROCK_RNG_ROUNDS
-// builds a benchmark variant with fewer (docs/benchmarks.md).
-#if !defined(MESOROCK_RNG_ROUNDS)
-#define MESOROCK_RNG_ROUNDS 10
-#endif
-using PairPhilox = r123::Philox4x32_R<MESOROCK_RNG_ROUNDS>;
+// Random123's default 10 rounds; 7 measured only 2% faster on the GPU (docs/benchmarks.md).
+using PairPhilox = r123::Philox4x32;
 
 // Zero-mean, unit-variance uniform variate xi_ij = sqrt(3) (2u - 1), u in (0, 1).
 // Groot & Warren (1997) showed a uniform distribution serves the DPD thermostat as well as a

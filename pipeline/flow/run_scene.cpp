@@ -106,14 +106,15 @@ std::vector<RegionRun> make_regions(const Scene& scene) {
   return out;
 }
 
-// One sample of every region: a regions.csv row per (region, type) with the count, the number
-// density and the mass flow rate along each axis, Q_a = sum v_a / L_a (m = 1; for a thin slab
-// across an axis, the flow rate through that plane); a saturation.csv row per region that names
-// saturation_of: S = n_type / n_counted and the recovery 1 - S.
+// One sample of every region due at `step`: a regions.csv row per (region, type) with the count,
+// the number density and the mass flow rate along each axis, Q_a = sum v_a / L_a (m = 1; for a thin
+// slab across an axis, the flow rate through that plane); a saturation.csv row per region that
+// names saturation_of: S = n_type / n_counted and the recovery 1 - S.
 void sample_regions(sim::Simulation& sim, const Scene& scene, std::vector<RegionRun>& regions,
                     std::uint64_t step, double time, const std::string& stage, std::ostream& rows,
                     std::ostream& saturation) {
   for (auto& r : regions) {
+    if (step % r.spec->every != 0) continue;  // each region has its own interval
     double counted = 0, of_type = 0;
     const double volume = r.grid.bin_volume();
     nlohmann::json per_type = nlohmann::json::object();
@@ -298,18 +299,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         if (averaged)
           for (auto& b : binned)
             if (now % b.spec.every == 0) b.average.add(sim->bin_sums(b.average.grid()));
-        bool region_due = false;
-        for (const auto& r : regions) region_due = region_due || now % r.spec->every == 0;
-        if (region_due) {
-          // Sample only the regions due now (each has its own interval).
-          std::vector<RegionRun> due;
-          for (auto& r : regions)
-            if (now % r.spec->every == 0) due.push_back(r);
-          sample_regions(*sim, scene, due, now, time, stage.name, region_rows, saturation_rows);
-          for (auto& d : due)
-            for (auto& r : regions)
-              if (r.spec == d.spec) r.last = d.last;
-        }
+        sample_regions(*sim, scene, regions, now, time, stage.name, region_rows, saturation_rows);
         if (o.progress) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
           const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;

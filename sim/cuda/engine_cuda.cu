@@ -145,13 +145,6 @@ __global__ void correction_kernel(StepView<Real> v, unsigned int* count) {
   }
 }
 
-// MESOROCK_FORCE_MIN_BLOCKS (a benchmark variant, build_bundle.sh VARIANTS) asks the compiler
-// to fit that many blocks per multiprocessor, trading registers for occupancy.
-#if defined(MESOROCK_FORCE_MIN_BLOCKS)
-#define MESOROCK_FORCE_BOUNDS __launch_bounds__(kBlock, MESOROCK_FORCE_MIN_BLOCKS)
-#else
-#define MESOROCK_FORCE_BOUNDS
-#endif
 // Rigid slabs (sim/rigid_slabs.h): the bodies live on the device; a step adds a one-thread half
 // kick, a per-block reduction of the slab particles' forces and a one-block kernel that finishes
 // the sum in a fixed order (so the motion is the same every run) and applies the second kick.
@@ -196,7 +189,7 @@ __global__ void slab_finish_kernel(const double* partials, int blocks, RigidSlab
 }
 
 template <class Real, class C, class T, class B, class W>
-__global__ void MESOROCK_FORCE_BOUNDS force_kernel(StepView<Real> v) {
+__global__ void force_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < v.n) force_on_particle<Real, C, T, B, W>(v, i, thread_stash());
 }
