@@ -44,4 +44,49 @@ inline MeanWithError block_average(const std::vector<double>& series, size_t blo
   return r;
 }
 
+// Least squares of u = c0 + c1 (z - zc) + c2 (z - zc)^2, weighted by 1 / err^2 when errors are
+// given (err empty: unit weights, chi2 then in the units of u^2). Normal equations (3 x 3) solved
+// by Cramer's rule; fitting about a centre zc inside the data keeps them well conditioned.
+struct ParabolaFit {
+  double c0 = 0, c1 = 0, c2 = 0;
+  double c2_error = 0;  // from the weights (meaningful only with errors)
+  double chi2_per_dof = 0;
+};
+
+inline ParabolaFit fit_parabola(const std::vector<double>& z, const std::vector<double>& u,
+                                const std::vector<double>& err, double zc) {
+  double S[5] = {0, 0, 0, 0, 0}, T[3] = {0, 0, 0};
+  auto weight = [&](size_t k) { return err.empty() ? 1.0 : 1.0 / (err[k] * err[k]); };
+  for (size_t k = 0; k < z.size(); ++k) {
+    const double w = weight(k);
+    const double d = z[k] - zc;
+    double p = 1;
+    for (int e = 0; e < 5; ++e) {
+      S[e] += w * p;
+      if (e < 3) T[e] += w * p * u[k];
+      p *= d;
+    }
+  }
+  // M = [[S0 S1 S2] [S1 S2 S3] [S2 S3 S4]]
+  auto det3 = [](double a, double b, double c, double d, double e, double f, double g, double h,
+                 double i) {
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  };
+  const double D = det3(S[0], S[1], S[2], S[1], S[2], S[3], S[2], S[3], S[4]);
+  ParabolaFit f;
+  f.c0 = det3(T[0], S[1], S[2], T[1], S[2], S[3], T[2], S[3], S[4]) / D;
+  f.c1 = det3(S[0], T[0], S[2], S[1], T[1], S[3], S[2], T[2], S[4]) / D;
+  f.c2 = det3(S[0], S[1], T[0], S[1], S[2], T[1], S[2], S[3], T[2]) / D;
+  // Variance of c2: (M^-1)_22 = (S0 S2 - S1^2) / D.
+  f.c2_error = std::sqrt((S[0] * S[2] - S[1] * S[1]) / D);
+  double chi2 = 0;
+  for (size_t k = 0; k < z.size(); ++k) {
+    const double d = z[k] - zc;
+    const double res = u[k] - (f.c0 + f.c1 * d + f.c2 * d * d);
+    chi2 += res * res * weight(k);
+  }
+  f.chi2_per_dof = z.size() > 3 ? chi2 / static_cast<double>(z.size() - 3) : 0;
+  return f;
+}
+
 }  // namespace mesorock::pipeline

@@ -150,52 +150,6 @@ CaseResult run_slab(const ValidateOptions& o) {
 // steady Stokes equation eta u'' = -rho g s gives u = c0 + c1 z + c2 z^2 with
 // eta = -s rho g / (2 c2), s = +1 (lower half) or -1 (upper half).
 
-struct ParabolaFit {
-  double c2 = 0, c2_error = 0, chi2_per_dof = 0;
-};
-
-// Weighted least squares of u = c0 + c1 z + c2 z^2 (normal equations, 3 x 3, solved by Cramer's
-// rule on the centred abscissa for conditioning).
-ParabolaFit fit_parabola(const std::vector<double>& z, const std::vector<double>& u,
-                         const std::vector<double>& err) {
-  double zc = 0;
-  for (double v : z) zc += v;
-  zc /= static_cast<double>(z.size());
-  double S[5] = {0, 0, 0, 0, 0}, T[3] = {0, 0, 0};
-  for (size_t k = 0; k < z.size(); ++k) {
-    const double w = 1.0 / (err[k] * err[k]);
-    const double d = z[k] - zc;
-    double p = 1;
-    for (int e = 0; e < 5; ++e) {
-      S[e] += w * p;
-      if (e < 3) T[e] += w * p * u[k];
-      p *= d;
-    }
-  }
-  // M = [[S0 S1 S2] [S1 S2 S3] [S2 S3 S4]]
-  auto det3 = [](double a, double b, double c, double d, double e, double f, double g, double h,
-                 double i) {
-    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
-  };
-  const double D = det3(S[0], S[1], S[2], S[1], S[2], S[3], S[2], S[3], S[4]);
-  const double D2 = det3(S[0], S[1], T[0], S[1], S[2], T[1], S[2], S[3], T[2]);
-  const double D1 = det3(S[0], T[0], S[2], S[1], T[1], S[3], S[2], T[2], S[4]);
-  const double D0 = det3(T[0], S[1], S[2], T[1], S[2], S[3], T[2], S[3], S[4]);
-  ParabolaFit f;
-  const double a0 = D0 / D, a1 = D1 / D;
-  f.c2 = D2 / D;
-  // Variance of c2: (M^-1)_22 = (S0 S2 - S1^2) / D.
-  f.c2_error = std::sqrt((S[0] * S[2] - S[1] * S[1]) / D);
-  double chi2 = 0;
-  for (size_t k = 0; k < z.size(); ++k) {
-    const double d = z[k] - zc;
-    const double res = (u[k] - (a0 + a1 * d + f.c2 * d * d)) / err[k];
-    chi2 += res * res;
-  }
-  f.chi2_per_dof = z.size() > 3 ? chi2 / static_cast<double>(z.size() - 3) : 0;
-  return f;
-}
-
 struct ViscosityRun {
   double g = 0, shear_rate = 0;
   double eta = 0, eta_error = 0;
@@ -263,7 +217,9 @@ ViscosityRun measure_viscosity(double shear_rate, const ValidateOptions& o, std:
         uu.push_back(u[static_cast<size_t>(b)]);
         ee.push_back(std::max(err[static_cast<size_t>(b)], 1e-12));
       }
-      const ParabolaFit f = fit_parabola(z, uu, ee);
+      double zc = 0;
+      for (double v : z) zc += v;
+      const ParabolaFit f = fit_parabola(z, uu, ee, zc / static_cast<double>(z.size()));
       const double sign = half == 0 ? 1.0 : -1.0;
       const double eta = -sign * rho * g / (2 * f.c2);
       const double e = std::abs(eta) * f.c2_error / std::abs(f.c2);

@@ -77,33 +77,6 @@ BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& peri
 // z0, z1 of the parabola; the slip length is how far beyond each wall surface the parabola
 // reaches zero (0 = no slip; positive = slip).
 
-struct ParabolaFit {
-  double c0 = 0, c1 = 0, c2 = 0, chi2_per_dof = 0;
-};
-
-ParabolaFit fit_parabola(const std::vector<double>& z, const std::vector<double>& u, double zc) {
-  double S[5] = {0, 0, 0, 0, 0}, T[3] = {0, 0, 0};
-  for (size_t k = 0; k < z.size(); ++k) {
-    const double d = z[k] - zc;
-    double p = 1;
-    for (int e = 0; e < 5; ++e) {
-      S[e] += p;
-      if (e < 3) T[e] += p * u[k];
-      p *= d;
-    }
-  }
-  auto det3 = [](double a, double b, double c, double d, double e, double f, double g, double h,
-                 double i) {
-    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
-  };
-  const double D = det3(S[0], S[1], S[2], S[1], S[2], S[3], S[2], S[3], S[4]);
-  ParabolaFit f;
-  f.c0 = det3(T[0], S[1], S[2], T[1], S[2], S[3], T[2], S[3], S[4]) / D;
-  f.c1 = det3(S[0], T[0], S[2], S[1], T[1], S[3], S[2], T[2], S[4]) / D;
-  f.c2 = det3(S[0], S[1], T[0], S[1], S[2], T[1], S[2], S[3], T[2]) / D;
-  return f;
-}
-
 struct ChannelResult {
   double eta = 0, eta_error = 0;
   double slip_low = 0, slip_high = 0, slip_error = 0;
@@ -168,7 +141,7 @@ ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
       zz.push_back(z);
       uu.push_back(u[static_cast<size_t>(b)]);
     }
-    return fit_parabola(zz, uu, zc);
+    return fit_parabola(zz, uu, {}, zc);
   };
   struct Derived {
     double eta, slip_low, slip_high;
@@ -247,7 +220,9 @@ ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
   return r;
 }
 
-CaseResult run_poiseuille_walls(const ValidateOptions& o) {
+}  // namespace
+
+CaseResult run_poiseuille_walls_case(const ValidateOptions& o) {
   CaseResult r;
   r.name = "poiseuille-walls";
   const ChannelResult c = measure_channel(o, 61);
@@ -292,12 +267,14 @@ CaseResult run_poiseuille_walls(const ValidateOptions& o) {
 // fluid particle may get deeper into the solid than a skin of half the wall-particle spacing;
 // the report gives the deepest one, and a run without the model shows the leak it prevents.
 
+namespace {
 struct Grain {
   double c[3];
   double r;
 };
+}  // namespace
 
-CaseResult run_no_penetration(const ValidateOptions& o) {
+CaseResult run_no_penetration_case(const ValidateOptions& o) {
   CaseResult r;
   r.name = "no-penetration";
   const bool full = o.size == CaseSize::Full;
@@ -419,15 +396,6 @@ CaseResult run_no_penetration(const ValidateOptions& o) {
                     " steps; without the model the deepest reached " + fmt(without.deepest, 3) +
                     " rc");
   return r;
-}
-
-}  // namespace
-
-CaseResult run_poiseuille_walls_case(const ValidateOptions& o) {
-  return run_poiseuille_walls(o);
-}
-CaseResult run_no_penetration_case(const ValidateOptions& o) {
-  return run_no_penetration(o);
 }
 
 }  // namespace mesorock::pipeline
