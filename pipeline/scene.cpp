@@ -13,6 +13,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include "mesorock/errors.h"
@@ -663,6 +664,80 @@ void read_slabs(const Context& c, Table& top, Scene& s) {
   }
 }
 
+// [[injection]]: injection/ejection boundaries (the 2017 paper's flooding at a set rate; sim/
+// injection.h): every `every` steps, `particles` particles of the eject types inside the outlet
+// box are removed and as many of the injected type appear at random points of the inlet box.
+void read_injection(const Context& c, Table& top, Scene& s) {
+  if (!top.get("injection")) return;
+  const auto blocks = top.require_blocks("injection");
+  if (blocks.size() > static_cast<size_t>(sim::kMaxInjections))
+    fail(c, "injection",
+         "at most " + std::to_string(sim::kMaxInjections) + " blocks (got " +
+             std::to_string(blocks.size()) + ")");
+  auto mobile = [&](int t) {
+    if (s.model.types[static_cast<size_t>(t)].frozen) return false;
+    for (const auto& r : s.model.rigid_slabs)
+      if (r.type == t) return false;
+    return true;
+  };
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    Table t(c, *blocks[i], indexed("injection", i),
+            {"type", "eject_types", "inlet_lo", "inlet_hi", "outlet_lo", "outlet_hi", "every",
+             "particles", "start_step", "stop_step"});
+    sim::InjectionSpec q;
+    const std::string name = t.require_string("type");
+    q.inject_type = s.model.type_index(name);
+    if (q.inject_type < 0) fail(c, t.key("type"), "unknown type " + in_quotes(name));
+    if (!mobile(q.inject_type))
+      fail(c, t.key("type"), "type " + in_quotes(name) + " is frozen or a slab (must be mobile)");
+    if (const toml::node* n = t.get("eject_types")) {
+      const auto names = string_list_at(c, *n, t.key("eject_types"));
+      if (names.empty()) fail(c, t.key("eject_types"), "must name at least one type");
+      for (size_t k = 0; k < names.size(); ++k) {
+        const int ty = s.model.type_index(names[k]);
+        const std::string at = indexed(t.key("eject_types"), k);
+        if (ty < 0) fail(c, at, "unknown type " + in_quotes(names[k]));
+        if (!mobile(ty)) fail(c, at, "type " + in_quotes(names[k]) + " is frozen or a slab");
+        q.eject_types |= 1u << ty;
+      }
+    } else {
+      for (int ty = 0; ty < s.model.ntypes(); ++ty)
+        if (mobile(ty)) q.eject_types |= 1u << ty;
+    }
+    q.inlet_lo = t.require_vec3("inlet_lo");
+    q.inlet_hi = t.require_vec3("inlet_hi");
+    q.outlet_lo = t.require_vec3("outlet_lo");
+    q.outlet_hi = t.require_vec3("outlet_hi");
+    bool overlap = true;
+    for (size_t a = 0; a < 3; ++a) {
+      for (auto [lo, hi, what] : {std::tuple{q.inlet_lo[a], q.inlet_hi[a], "inlet_hi"},
+                                  std::tuple{q.outlet_lo[a], q.outlet_hi[a], "outlet_hi"}}) {
+        if (!(hi > lo)) fail(c, indexed(t.key(what), a), "must be greater than the lo corner");
+        if (lo < s.box.lo[a] || hi > s.box.hi[a])
+          fail(c, t.key(what), "the box must lie inside the simulation box");
+      }
+      overlap = overlap && q.inlet_lo[a] < q.outlet_hi[a] && q.outlet_lo[a] < q.inlet_hi[a];
+    }
+    if (overlap) fail(c, t.key("outlet_lo"), "the inlet and outlet boxes overlap");
+    q.every = positive_integer(c, t, "every", 1);
+    const std::int64_t per = t.integer("particles").value_or(1);
+    if (per < 1 || per > 1024)
+      fail(c, t.key("particles"), "must be in 1..1024 (got " + std::to_string(per) + ")");
+    q.per_event = static_cast<int>(per);
+    const std::int64_t start = t.integer("start_step").value_or(0);
+    if (start < 0) fail(c, t.key("start_step"), "must be >= 0 (got " + std::to_string(start) + ")");
+    q.start_step = static_cast<std::uint64_t>(start);
+    if (auto stop = t.integer("stop_step")) {
+      if (*stop <= start)
+        fail(c, t.key("stop_step"),
+             "must be greater than start_step (got " + std::to_string(*stop) + ")");
+      q.stop_step = static_cast<std::uint64_t>(*stop);
+    }
+    t.finish();
+    s.model.injections.push_back(q);
+  }
+}
+
 void read_output(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("output");
   if (!tbl) return;
@@ -737,7 +812,7 @@ void read_output(const Context& c, Table& top, Scene& s) {
     for (size_t i = 0; i < a->size(); ++i) {
       const std::string at = indexed("output.regions", i);
       Table r(c, *a->get(i)->as_table(), at,
-              {"name", "lo", "hi", "every", "types", "saturation_of"});
+              {"name", "lo", "hi", "every", "types", "saturation_of", "pressure"});
       RegionOutputSpec spec;
       spec.name = r.string("name").value_or("region" + std::to_string(i + 1));
       if (spec.name.empty() || !region_names.insert(spec.name).second)
@@ -765,6 +840,7 @@ void read_output(const Context& c, Table& top, Scene& s) {
                "must be one of the region's types (got " + in_quotes(*sat) + ")");
         spec.saturation_of = *sat;
       }
+      spec.pressure = r.boolean("pressure").value_or(false);
       r.finish();
       s.output.regions.push_back(std::move(spec));
     }
@@ -844,7 +920,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   s.source_text = text;
   Table top(c, root, "",
             {"name", "seed", "precision", "box", "model", "types", "pairs", "walls",
-             "virtual_walls", "slabs", "init", "run", "output", "units"});
+             "virtual_walls", "slabs", "injection", "init", "run", "output", "units"});
   const std::string stem = path_for_messages.stem().string();
   s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
   if (s.name.empty()) fail(c, "name", "must not be empty");
@@ -863,6 +939,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   read_walls(c, top, s);
   read_virtual_walls(c, top, s);
   read_slabs(c, top, s);
+  read_injection(c, top, s);
   read_init(c, top, s);
   read_stages(c, top, s);
   read_output(c, top, s);

@@ -49,6 +49,7 @@ struct RegionOutputSpec {
   std::uint64_t every = 100;
   std::vector<std::string> types;  // counted types, each on its own; empty = every mobile type
   std::string saturation_of;       // empty, or the counted type whose share is the saturation
+  bool pressure = false;  // also the stress of the counted types in the box (region_pressure.csv)
 };
 
 struct OutputSpec {

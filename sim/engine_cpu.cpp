@@ -92,7 +92,39 @@ class CpuEngine final : public Engine<Real> {
       const StepView<Real> w = s_->view();
 #pragma omp parallel for schedule(static)
       for (int i = 0; i < n; ++i) kick(w, i);
+      if (!s_->injections.empty()) inject();
     }
+  }
+
+  // The injection/ejection events due at this step (sim/injection.h). Serial on purpose: one
+  // O(N) scan per pick, independent of the thread count; the GPU takes the same particle.
+  void inject() {
+    if (counts_.size() != s_->injections.size()) counts_.resize(s_->injections.size());
+    const StepView<Real> v = s_->view();
+    for (size_t k = 0; k < s_->injections.size(); ++k) {
+      const InjectionPlan<Real>& plan = s_->injections[k];
+      if (!plan.due(v.step)) continue;
+      for (int pick = 0; pick < plan.per_event; ++pick) {
+        std::uint64_t best = kNoInjectionCandidate;
+        for (int i = 0; i < v.n; ++i)
+          best = std::min(best, injection_key_of(v, plan.view, i, pick));
+        if (best == kNoInjectionCandidate) {
+          ++counts_[k].missed;
+          continue;
+        }
+        for (int i = 0; i < v.n; ++i)
+          if (injection_key_of(v, plan.view, i, pick) == best) {
+            inject_particle(v, plan.view, i, pick);
+            ++counts_[k].injected;
+          }
+      }
+    }
+  }
+
+  std::vector<InjectionCounts> injection_counts() const override {
+    std::vector<InjectionCounts> c = counts_;
+    c.resize(s_->injections.size());
+    return c;
   }
 
   void set_dt(Real dt) override {
@@ -103,7 +135,7 @@ class CpuEngine final : public Engine<Real> {
     return s_->step;
   }
 
-  VirialSums virial() override {
+  VirialSums virial(const VirialRegion<Real>& region) override {
     ThreadScope scope(threads_);
     const StepView<Real> v = s_->view();
     const int n = v.n;
@@ -113,6 +145,7 @@ class CpuEngine final : public Engine<Real> {
       VirialSums local;
 #pragma omp for schedule(static)
       for (int k = 0; k < n; ++k) {
+        if (!region.contains(v, k)) continue;
         const auto w =
             virial_of_particle<Real, typename Terms::conservative, typename Terms::thermostat,
                                typename Terms::wall_model>(v, k);
@@ -243,6 +276,7 @@ class CpuEngine final : public Engine<Real> {
     Real dv[3] = {0, 0, 0};
   };
   std::vector<Correction> corrections_;
+  std::vector<InjectionCounts> counts_;
   std::uint64_t corrected_ = 0;
   int threads_;
   HostState<Real>* s_ = nullptr;

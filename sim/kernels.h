@@ -18,6 +18,7 @@
 #include "sim/box.h"
 #include "sim/cell_grid.h"
 #include "sim/hd.h"
+#include "sim/injection.h"
 #include "sim/observables.h"
 #include "sim/pair_terms.h"
 #include "sim/rigid_slabs.h"
@@ -513,6 +514,56 @@ MESO_HD MESO_INLINE Real slab_force_of(const StepView<Real>& v, int i, int k) {
   const int a = v.slabs.axis[k];
   return a == 0 ? v.fx[i] : (a == 1 ? v.fy[i] : v.fz[i]);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Injection and ejection (sim/injection.h): the pick key of particle i, and the move of the
+// picked particle to the inlet as the injected type. Its force is zeroed (the next force pass
+// computes it at the new place) and v~ follows v. The type array is written only here, between
+// steps; the pass kernels read it as const.
+template <class Real>
+MESO_HD MESO_INLINE std::uint64_t injection_key_of(const StepView<Real>& v,
+                                                   const InjectionView<Real>& inj, int i,
+                                                   int pick) {
+  return injection_key(inj, v.x[i], v.y[i], v.z[i], v.type[i], v.id[i], v.step, pick);
+}
+
+template <class Real>
+MESO_HD MESO_INLINE void inject_particle(const StepView<Real>& v, const InjectionView<Real>& inj,
+                                         int i, int pick) {
+  Real pos[3], vel[3];
+  injection_placement(inj, v.step, pick, pos, vel);
+  v.x[i] = pos[0];
+  v.y[i] = pos[1];
+  v.z[i] = pos[2];
+  v.vx[i] = vel[0];
+  v.vy[i] = vel[1];
+  v.vz[i] = vel[2];
+  if (v.vex != nullptr) {
+    v.vex[i] = vel[0];
+    v.vey[i] = vel[1];
+    v.vez[i] = vel[2];
+  }
+  v.fx[i] = Real(0);
+  v.fy[i] = Real(0);
+  v.fz[i] = Real(0);
+  const_cast<std::int32_t*>(v.type)[i] = inj.inject_type;
+}
+
+// The particles a stress sum covers: all of them, or (active) those of some types inside a box,
+// for the pressure of a region (each particle contributes its kinetic term and half of each of
+// its pair virials, the per-particle convention of LAMMPS compute stress/atom).
+template <class Real>
+struct VirialRegion {
+  bool active = false;
+  std::uint32_t type_mask = ~0u;
+  Real lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+
+  MESO_HD MESO_INLINE bool contains(const StepView<Real>& v, int i) const {
+    if (!active) return true;
+    return ((type_mask >> v.type[i]) & 1u) && v.x[i] >= lo[0] && v.x[i] < hi[0] &&
+           v.y[i] >= lo[1] && v.y[i] < hi[1] && v.z[i] >= lo[2] && v.z[i] < hi[2];
+  }
+};
 
 // ---------------------------------------------------------------------------------------------
 // Stress observable: per-particle half of the pair virial, split into conservative, dissipative

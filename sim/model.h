@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/injection.h"
 #include "sim/rigid_slabs.h"
 #include "sim/wall_model.h"
 
@@ -72,6 +73,20 @@ struct RigidSlabSpec {
   double applied_pressure = 0;
 };
 
+// An injection/ejection boundary (sim/injection.h): every `every` steps after start_step, up to
+// stop_step, `per_event` particles of the eject types inside the outlet box are taken out and put
+// back at random points of the inlet box as inject_type. Equal rates: N stays constant.
+struct InjectionSpec {
+  int inject_type = 0;
+  std::uint32_t eject_types = 0;  // bit t: type t may be taken at the outlet
+  std::array<double, 3> inlet_lo{0, 0, 0}, inlet_hi{0, 0, 0};
+  std::array<double, 3> outlet_lo{0, 0, 0}, outlet_hi{0, 0, 0};
+  std::uint64_t every = 1;
+  int per_event = 1;
+  std::uint64_t start_step = 0;
+  std::uint64_t stop_step = ~std::uint64_t(0);
+};
+
 struct Model {
   std::vector<TypeSpec> types;
   std::vector<PairSpec> pairs;  // ntypes x ntypes, symmetric
@@ -88,6 +103,7 @@ struct Model {
   WallModelSpec wall_model;
   std::vector<VirtualWallSpec> virtual_walls;  // at most kMaxVirtualWalls
   std::vector<RigidSlabSpec> rigid_slabs;      // at most kMaxRigidSlabs
+  std::vector<InjectionSpec> injections;       // at most kMaxInjections
 
   // The wall types of the wall model: the given ones, or every frozen type.
   std::uint32_t wall_mask() const {

@@ -117,6 +117,46 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
     if (std::count(p.type.begin(), p.type.end(), r.type) == 0)
       throw ConfigError(name + ": the slab has no particles");
   }
+  if (m.injections.size() > static_cast<size_t>(kMaxInjections))
+    throw ConfigError("at most " + std::to_string(kMaxInjections) + " injection boundaries");
+  for (size_t k = 0; k < m.injections.size(); ++k) {
+    const InjectionSpec& q = m.injections[k];
+    const std::string name = "injection " + std::to_string(k + 1);
+    auto mobile_fluid = [&](int t) {
+      if (m.types[static_cast<size_t>(t)].frozen) return false;
+      for (const RigidSlabSpec& r : m.rigid_slabs)
+        if (r.type == t) return false;
+      return true;
+    };
+    if (q.inject_type < 0 || q.inject_type >= m.ntypes())
+      throw ConfigError(name + ": injected type out of range");
+    if (!mobile_fluid(q.inject_type))
+      throw ConfigError(name + ": the injected type must be mobile (not frozen, not a slab)");
+    if (q.eject_types == 0) throw ConfigError(name + ": no type may be ejected");
+    for (int t = 0; t < 32; ++t) {
+      if (!((q.eject_types >> t) & 1u)) continue;
+      if (t >= m.ntypes()) throw ConfigError(name + ": ejected type out of range");
+      if (!mobile_fluid(t))
+        throw ConfigError(name + ": ejected type " + m.types[static_cast<size_t>(t)].name +
+                          " must be mobile (not frozen, not a slab)");
+    }
+    bool overlap = true;
+    for (int a = 0; a < 3; ++a) {
+      for (double c : {q.inlet_lo[a], q.inlet_hi[a], q.outlet_lo[a], q.outlet_hi[a]}) {
+        check_finite(c, name + " inlet/outlet corner");
+        if (c < box.lo[a] || c > box.hi[a])
+          throw ConfigError(name + ": inlet and outlet must lie inside the box");
+      }
+      if (!(q.inlet_hi[a] > q.inlet_lo[a]) || !(q.outlet_hi[a] > q.outlet_lo[a]))
+        throw ConfigError(name + ": inlet and outlet need hi > lo on every axis");
+      overlap = overlap && q.inlet_lo[a] < q.outlet_hi[a] && q.outlet_lo[a] < q.inlet_hi[a];
+    }
+    if (overlap) throw ConfigError(name + ": inlet and outlet boxes overlap");
+    if (q.every < 1) throw ConfigError(name + ": every must be at least 1 step");
+    if (q.per_event < 1 || q.per_event > 1024)
+      throw ConfigError(name + ": particles per event must be 1 to 1024");
+    if (!(q.stop_step > q.start_step)) throw ConfigError(name + ": stop step must follow start");
+  }
   const size_t n = p.size();
   if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
       p.vz.size() != n || p.type.size() != n || p.id.size() != n)
@@ -227,6 +267,26 @@ class SimulationImpl final : public Simulation {
       b.applied_force = r.applied_pressure * area;
       b.mass = static_cast<double>(std::count(p.type.begin(), p.type.end(), r.type));
       s.slab_bodies.push_back(b);
+    }
+    for (size_t k = 0; k < model.injections.size(); ++k) {
+      const InjectionSpec& q = model.injections[k];
+      InjectionPlan<Real> plan;
+      plan.view.inject_type = q.inject_type;
+      plan.view.eject_types = q.eject_types;
+      for (int a = 0; a < 3; ++a) {
+        plan.view.inlet_lo[a] = static_cast<Real>(q.inlet_lo[a]);
+        plan.view.inlet_hi[a] = static_cast<Real>(q.inlet_hi[a]);
+        plan.view.outlet_lo[a] = static_cast<Real>(q.outlet_lo[a]);
+        plan.view.outlet_hi[a] = static_cast<Real>(q.outlet_hi[a]);
+      }
+      plan.view.sqrt_kBT = static_cast<Real>(std::sqrt(model.kBT));
+      plan.view.seed = model.seed;
+      plan.view.index = static_cast<int>(k);
+      plan.every = q.every;
+      plan.start_step = q.start_step;
+      plan.stop_step = q.stop_step;
+      plan.per_event = q.per_event;
+      s.injections.push_back(plan);
     }
     s.slab_half_velocity.assign(s.slab_bodies.size(), Real(0));
     s.slab_velocity.assign(s.slab_bodies.size(), Real(0));
@@ -388,12 +448,37 @@ class SimulationImpl final : public Simulation {
   }
 
   StressSample stress() override {
+    return stress_of(VirialRegion<Real>{}, box_.volume());
+  }
+
+  StressSample region_stress(const RegionSelection& r) override {
+    VirialRegion<Real> region;
+    region.active = true;
+    region.type_mask = r.type_mask;
+    double volume = 1;
+    for (int a = 0; a < 3; ++a) {
+      if (!(r.hi[a] > r.lo[a])) throw ConfigError("region stress: hi must exceed lo on every axis");
+      region.lo[a] = static_cast<Real>(r.lo[a]);
+      region.hi[a] = static_cast<Real>(r.hi[a]);
+      volume *= r.hi[a] - r.lo[a];
+    }
+    return stress_of(region, volume);
+  }
+
+  std::vector<InjectionCounts> injections() override {
+    return engine_->injection_counts();
+  }
+
+ private:
+  StressSample stress_of(const VirialRegion<Real>& region, double volume) {
     sync();
     StressSample out;
-    out.volume = box_.volume();
+    out.volume = volume;
     const double inv_v = 1.0 / out.volume;
+    const StepView<Real> v = state_.view();
     for (int i = 0; i < state_.size(); ++i) {
       if (((state_.frozen_mask | state_.slabs.mask) >> state_.type[i]) & 1u) continue;
+      if (!region.contains(v, i)) continue;
       const double v[3] = {double(state_.vx[i]), double(state_.vy[i]), double(state_.vz[i])};
       out.kinetic[0] += v[0] * v[0];
       out.kinetic[1] += v[1] * v[1];
@@ -402,7 +487,7 @@ class SimulationImpl final : public Simulation {
       out.kinetic[4] += v[0] * v[2];
       out.kinetic[5] += v[1] * v[2];
     }
-    const VirialSums w = engine_->virial();
+    const VirialSums w = engine_->virial(region);
     for (int c = 0; c < 6; ++c) {
       out.kinetic[c] *= inv_v;
       out.conservative[c] = w.conservative[c] * inv_v;
@@ -412,6 +497,7 @@ class SimulationImpl final : public Simulation {
     return out;
   }
 
+ public:
   std::vector<double> bin_sums(const BinGrid& grid) override {
     for (int a = 0; a < 3; ++a)
       if (grid.cells[static_cast<size_t>(a)] < 1 || !(grid.width(a) > 0))

@@ -59,6 +59,12 @@ struct RigidSlabState {
   double position = 0, velocity = 0, force = 0, applied_force = 0, mass = 0;
 };
 
+// The particles a region's stress covers: the given types inside the box [lo, hi).
+struct RegionSelection {
+  std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
+  std::uint32_t type_mask = ~0u;
+};
+
 class Simulation {
  public:
   virtual ~Simulation() = default;
@@ -85,6 +91,13 @@ class Simulation {
   virtual double kinetic_temperature() = 0;      // sum m v^2 / (3 N_mobile)
   virtual std::array<double, 3> momentum() = 0;  // total momentum of mobile particles
   virtual StressSample stress() = 0;             // kinetic + pair virials, per volume
+  // The stress of a region: the kinetic terms of its mobile particles of the selected types and
+  // half of each of their pair virials, over the region's volume (the per-particle convention
+  // of LAMMPS compute stress/atom). For a region of bulk fluid it agrees with stress().
+  virtual StressSample region_stress(const RegionSelection& region) = 0;
+  // Per injection/ejection boundary (Model::injections): particles moved so far and events that
+  // found no candidate in the outlet box.
+  virtual std::vector<InjectionCounts> injections() = 0;
   // Per-bin sums over the current configuration (kBinFields per bin: count, sum v, sum v*v), for
   // profiles and fields; average them with BinnedAverage. Computed where the particles live (on
   // the device for CUDA); only the bins cross to the host.

@@ -34,7 +34,8 @@ struct HostState {
   RigidSlabs<Real> slabs;
   std::vector<RigidSlabBody> slab_bodies;
   std::vector<Real> slab_half_velocity, slab_velocity;
-  std::vector<Real> kappa;  // the wall model's dissipation table
+  std::vector<Real> kappa;                      // the wall model's dissipation table
+  std::vector<InjectionPlan<Real>> injections;  // injection/ejection boundaries (often none)
   int ntypes = 0;
   int body_force_axis = 2;
   Real body_force_midplane = 0;
@@ -53,7 +54,10 @@ struct HostState {
     v.n = size();
     v.x = x.data(), v.y = y.data(), v.z = z.data();
     v.vx = vx.data(), v.vy = vy.data(), v.vz = vz.data();
-    v.vex = vex.data(), v.vey = vey.data(), v.vez = vez.data();
+    // Null without a thermostat (an empty vector's data() need not be null).
+    v.vex = vex.empty() ? nullptr : vex.data();
+    v.vey = vey.empty() ? nullptr : vey.data();
+    v.vez = vez.empty() ? nullptr : vez.data();
     v.fx = fx.data(), v.fy = fy.data(), v.fz = fz.data();
     v.rho = rho.data();
     v.bvf = bvf.empty() ? nullptr : bvf.data();
@@ -105,12 +109,15 @@ class Engine {
   virtual void download(HostState<Real>& host) = 0;
   // Virial of the current configuration, with the same v~ and random numbers the last force pass
   // used (the pair RNG is keyed by step, so nothing needs storing).
-  virtual VirialSums virial() = 0;
+  // `region` restricts the sum to the particles of some types inside a box (region pressure).
+  virtual VirialSums virial(const VirialRegion<Real>& region = {}) = 0;
   // Per-bin sums (kBinFields per bin, see observables.h) over the current configuration.
   virtual void bin_sums(const BinGrid& grid, std::vector<double>& sums) = 0;
   virtual std::uint64_t step() const = 0;
   // Fluid particles put back out of a wall by the wall model so far (0 without it).
   virtual std::uint64_t wall_corrections() const { return 0; }
+  // Per injection/ejection boundary: particles moved and events without a candidate.
+  virtual std::vector<InjectionCounts> injection_counts() const { return {}; }
   // Bytes of device memory this engine holds (0 on the CPU).
   virtual std::size_t device_bytes() const { return 0; }
   // Per-pass times when profiling was asked for ("" otherwise).

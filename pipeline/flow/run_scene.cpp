@@ -112,7 +112,7 @@ std::vector<RegionRun> make_regions(const Scene& scene) {
 // names saturation_of: S = n_type / n_counted and the recovery 1 - S.
 void sample_regions(sim::Simulation& sim, const Scene& scene, std::vector<RegionRun>& regions,
                     std::uint64_t step, double time, const std::string& stage, std::ostream& rows,
-                    std::ostream& saturation) {
+                    std::ostream& saturation, std::ostream& pressure) {
   for (auto& r : regions) {
     if (step % r.spec->every != 0) continue;  // each region has its own interval
     double counted = 0, of_type = 0;
@@ -133,6 +133,20 @@ void sample_regions(sim::Simulation& sim, const Scene& scene, std::vector<Region
       if (static_cast<int>(k) == r.saturation_type) of_type = n;
     }
     r.last = {{"step", step}, {"types", per_type}};
+    if (r.spec->pressure) {
+      sim::RegionSelection sel;
+      sel.lo = r.spec->lo;
+      sel.hi = r.spec->hi;
+      sel.type_mask = 0;
+      for (int t : r.types) sel.type_mask |= 1u << t;
+      const sim::StressSample st = sim.region_stress(sel);
+      const auto total = st.total();
+      pressure << step << "," << time << "," << stage << "," << r.spec->name << ","
+               << st.pressure();
+      for (double v : total) pressure << "," << v;
+      pressure << "\n";
+      r.last["pressure"] = st.pressure();
+    }
     if (r.saturation_type >= 0) {
       const double sat = counted > 0 ? of_type / counted : 0.0;
       saturation << step << "," << time << "," << stage << "," << r.spec->name << "," << sat << ","
@@ -194,9 +208,11 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   std::vector<RegionRun> regions = make_regions(scene);
   const fs::path regions_path = o.out_dir / "regions.csv";
   const fs::path saturation_path = o.out_dir / "saturation.csv";
-  std::ofstream region_rows, saturation_rows;
-  bool any_saturation = false;
+  const fs::path pressure_path = o.out_dir / "region_pressure.csv";
+  std::ofstream region_rows, saturation_rows, pressure_rows;
+  bool any_saturation = false, any_pressure = false;
   for (const auto& r : regions) any_saturation = any_saturation || r.saturation_type >= 0;
+  for (const auto& r : regions) any_pressure = any_pressure || r.spec->pressure;
   if (!regions.empty()) {
     region_rows.open(temporary_path_for(regions_path));
     if (!region_rows) throw IoError(regions_path.string() + ": cannot open for writing");
@@ -216,7 +232,38 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       saturation_rows << "step,time,stage,region,saturation,recovery,counted\n";
       saturation_rows << std::setprecision(10);
     }
+    if (any_pressure) {
+      pressure_rows.open(temporary_path_for(pressure_path));
+      if (!pressure_rows) throw IoError(pressure_path.string() + ": cannot open for writing");
+      pressure_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                    << scene.path.string()
+                    << ": stress of the region's counted types = (sum of their m v v + half of "
+                       "each of their pair virials) / region volume; pressure = trace / 3\n";
+      pressure_rows << "step,time,stage,region,pressure,sxx,syy,szz,sxy,sxz,syz\n";
+      pressure_rows << std::setprecision(10);
+    }
   }
+  // injection.csv: particles moved by each injection/ejection boundary, at every thermo row.
+  const fs::path injection_path = o.out_dir / "injection.csv";
+  std::ofstream injection_rows;
+  if (!scene.model.injections.empty() && thermo_every > 0) {
+    injection_rows.open(temporary_path_for(injection_path));
+    if (!injection_rows) throw IoError(injection_path.string() + ": cannot open for writing");
+    injection_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                   << scene.path.string()
+                   << ": injected = particles moved from the outlet box to the inlet box so far; "
+                      "missed = events that found no particle to eject\n";
+    injection_rows << "step,time,stage,boundary,type,injected,missed\n";
+  }
+  auto write_injection_rows = [&](std::uint64_t step, double t, const std::string& stage) {
+    if (!injection_rows.is_open()) return;
+    const auto counts = sim->injections();
+    for (size_t k = 0; k < counts.size(); ++k)
+      injection_rows
+          << step << "," << t << "," << stage << "," << k + 1 << ","
+          << scene.model.types[static_cast<size_t>(scene.model.injections[k].inject_type)].name
+          << "," << counts[k].injected << "," << counts[k].missed << "\n";
+  };
   // slabs.csv: the rigid slabs at every thermo row.
   const fs::path slabs_path = o.out_dir / "slabs.csv";
   std::ofstream slab_rows;
@@ -248,7 +295,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   try {
     if (!regions.empty())
       sample_regions(*sim, scene, regions, sim->step(), time, scene.stages.front().name,
-                     region_rows, saturation_rows);
+                     region_rows, saturation_rows, pressure_rows);
     for (const auto& stage : scene.stages) {
       sim->set_dt(stage.dt);
       const bool averaged = stage_is_averaged(scene, stage.name);
@@ -285,6 +332,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           thermo << "," << p[0] << "," << p[1] << "," << p[2] << "\n";
           if (averaged) series.add(T, st);
           write_slab_rows(now, time, stage.name);
+          write_injection_rows(now, time, stage.name);
         }
         if (scene.output.snapshot_every > 0 && now % scene.output.snapshot_every == 0) {
           const fs::path dir = o.out_dir / "snapshots";
@@ -299,7 +347,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         if (averaged)
           for (auto& b : binned)
             if (now % b.spec.every == 0) b.average.add(sim->bin_sums(b.average.grid()));
-        sample_regions(*sim, scene, regions, now, time, stage.name, region_rows, saturation_rows);
+        sample_regions(*sim, scene, regions, now, time, stage.name, region_rows, saturation_rows,
+                       pressure_rows);
         if (o.progress) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
           const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;
@@ -323,7 +372,11 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     region_rows.close();
     saturation_rows.close();
     slab_rows.close();
+    pressure_rows.close();
+    injection_rows.close();
     fs::remove(temporary_path_for(slabs_path), ec);
+    fs::remove(temporary_path_for(pressure_path), ec);
+    fs::remove(temporary_path_for(injection_path), ec);
     fs::remove(temporary_path_for(regions_path), ec);
     fs::remove(temporary_path_for(saturation_path), ec);
     throw;
@@ -336,7 +389,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   }
   for (auto [stream, path] :
        {std::pair{&region_rows, regions_path}, std::pair{&saturation_rows, saturation_path},
-        std::pair{&slab_rows, slabs_path}}) {
+        std::pair{&slab_rows, slabs_path}, std::pair{&pressure_rows, pressure_path},
+        std::pair{&injection_rows, injection_path}}) {
     if (!stream->is_open()) continue;
     stream->close();
     if (!*stream) throw IoError(path.string() + ": write failed");
@@ -402,11 +456,26 @@ void run_scene(const Scene& scene, const RunOptions& o) {
                     {"particles", r.mass}});
     summary["slabs"] = sj;
   }
+  if (!scene.model.injections.empty()) {
+    nlohmann::json ij = nlohmann::json::array();
+    const auto counts = sim->injections();
+    for (size_t k = 0; k < counts.size(); ++k) {
+      const sim::InjectionSpec& q = scene.model.injections[k];
+      ij.push_back({{"type", scene.model.types[static_cast<size_t>(q.inject_type)].name},
+                    {"every", q.every},
+                    {"particles_per_event", q.per_event},
+                    {"particles_per_step", static_cast<double>(q.per_event) / q.every},
+                    {"injected", counts[k].injected},
+                    {"missed_events", counts[k].missed}});
+    }
+    summary["injection"] = ij;
+  }
   if (!regions.empty()) {
     nlohmann::json rj = nlohmann::json::object();
     for (const auto& r : regions) rj[r.spec->name] = r.last;
     summary["regions"] = {{"file", "regions.csv"}, {"last_sample", rj}};
     if (any_saturation) summary["regions"]["saturation_file"] = "saturation.csv";
+    if (any_pressure) summary["regions"]["pressure_file"] = "region_pressure.csv";
   }
   if (scene.model.wall_model.enabled) {
     const sim::WallModelSpec& w = scene.model.wall_model;

@@ -222,6 +222,10 @@ const std::vector<ValidationCase>& validation_cases() {
       {"contact-angle",
        "liquid plug in a slit of frozen walls (2020 paper): contact angle vs A_SL (calibration)",
        run_contact_angle_case},
+      {"flooding-mini",
+       "2020 paper's flooding set-up in small: pistons push a working fluid through a grain "
+       "block; recovery, no particle through a wall or slab",
+       run_flooding_mini_case},
   };
   return cases;
 }

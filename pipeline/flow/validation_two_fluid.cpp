@@ -25,8 +25,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// The liquid of both cases (2017 and 2020 papers): A = -40, B = 25, rd = 0.75, gamma = 4.5.
-constexpr double kA = -40, kB = 25, kRd = 0.75, kGamma = 4.5;
+// The liquid of both cases (2017 and 2020 papers) is validation.h's: A = -40, B = 25, rd = 0.75,
+// gamma = 4.5.
 
 // Coexistence density of the A = -40 liquid with its vapour (PHYSICS.md; the slab case measures
 // 6.069 at full size).

@@ -24,23 +24,8 @@
 
 namespace mesorock::pipeline {
 
-namespace {
-
 using Clock = std::chrono::steady_clock;
 
-// The bulk liquid of the viscosity case: A = -40, B = 25, rd = 0.75, gamma = 4.5, rho = 7.
-constexpr double kA = -40, kB = 25, kRd = 0.75, kGamma = 4.5, kRho = 7.0;
-
-// Shear viscosity of that liquid from the `viscosity` case at full size (H100, 2026-11-23,
-// docs/validation.md): pooled over three forcings, 6.97 +- 0.057.
-constexpr double kBulkViscosity = 6.97, kBulkViscosityError = 0.057;
-
-// Depth below the pore surface (> 0 inside the solid, <= 0 in the pore) of a point.
-using SolidDepth = std::function<double(double x, double y, double z)>;
-
-// Equilibrates the liquid in a periodic box, then keeps particles in the pore (depth <= 0) as
-// fluid and those with 0 < depth <= thickness as frozen wall; deeper ones are dropped. Types:
-// 0 fluid, 1 wall; every pair has the liquid's parameters; the wall model is on.
 BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
                               const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
                               std::uint64_t seed, const ValidateOptions& o) {
@@ -69,6 +54,8 @@ BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& peri
   }
   return s;
 }
+
+namespace {
 
 // --------------------------------------------------------------------------------------------
 // poiseuille-walls: body-force flow between two flat walls (surfaces at z = w and z = Lz - w).

@@ -188,6 +188,32 @@ __global__ void slab_finish_kernel(const double* partials, int blocks, RigidSlab
   }
 }
 
+// Injection/ejection (sim/injection.h), one pick at a time: the smallest key among the
+// candidates, then the particle holding it moves (counts: injected, missed per boundary).
+template <class Real>
+__global__ void injection_key_kernel(StepView<Real> v, InjectionView<Real> inj, int pick,
+                                     unsigned long long* best) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n) return;
+  const std::uint64_t key = injection_key_of(v, inj, i, pick);
+  if (key != kNoInjectionCandidate) atomicMin(best, static_cast<unsigned long long>(key));
+}
+
+template <class Real>
+__global__ void injection_apply_kernel(StepView<Real> v, InjectionView<Real> inj, int pick,
+                                       const unsigned long long* best, unsigned long long* counts) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const unsigned long long b = *best;
+  if (b == kNoInjectionCandidate) {
+    if (i == 0) atomicAdd(counts + 2 * inj.index + 1, 1ull);
+    return;
+  }
+  if (i < v.n && injection_key_of(v, inj, i, pick) == b) {
+    inject_particle(v, inj, i, pick);
+    atomicAdd(counts + 2 * inj.index, 1ull);
+  }
+}
+
 template <class Real, class C, class T, class B, class W>
 __global__ void force_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -198,12 +224,12 @@ __global__ void force_kernel(StepView<Real> v) {
 // every run); the host adds the per-block partials in block order. 18 doubles per block instead
 // of per particle keeps the stress observable within the memory budget.
 template <class Real, class C, class T, class W>
-__global__ void virial_kernel(StepView<Real> v, double* block_sums) {
+__global__ void virial_kernel(StepView<Real> v, VirialRegion<Real> region, double* block_sums) {
   using BlockReduce = cub::BlockReduce<double, kBlock>;
   __shared__ typename BlockReduce::TempStorage temp;
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   ParticleVirial<Real> w;
-  if (i < v.n) w = virial_of_particle<Real, C, T, W>(v, i);
+  if (i < v.n && region.contains(v, i)) w = virial_of_particle<Real, C, T, W>(v, i);
   const Real* parts[3] = {w.conservative, w.dissipative, w.random};
   for (int p = 0; p < 3; ++p)
     for (int c = 0; c < 6; ++c) {
@@ -316,6 +342,7 @@ class CudaEngine final : public Engine<Real> {
       if (nslabs_ > 0) slab_forces(true);
       mark(4);
       kick_kernel<<<g, kBlock>>>(view());
+      if (!host_->injections.empty()) inject();
       mark(5);
       if (profile_) accumulate();
     }
@@ -346,11 +373,48 @@ class CudaEngine final : public Engine<Real> {
     host.dt = dt_;
   }
 
-  VirialSums virial() override {
+  // The injection/ejection events due at this step; the key search and the move stay on the
+  // device (no synchronisation), the counters are read only when asked for.
+  void inject() {
+    const int g = blocks_for(n_);
+    const StepView<Real> v = view();
+    for (const InjectionPlan<Real>& plan : host_->injections) {
+      if (!plan.due(step_)) continue;
+      if (injection_best_.size() == 0) {
+        injection_best_.resize(1);
+        injection_counts_.resize(2 * kMaxInjections);
+        check(cudaMemset(injection_counts_.get(), 0, 2 * kMaxInjections * sizeof(std::uint64_t)),
+              "injection counters");
+      }
+      for (int pick = 0; pick < plan.per_event; ++pick) {
+        check(cudaMemsetAsync(injection_best_.get(), 0xFF, sizeof(std::uint64_t)), "pick reset");
+        auto* best = reinterpret_cast<unsigned long long*>(injection_best_.get());
+        injection_key_kernel<<<g, kBlock>>>(v, plan.view, pick, best);
+        injection_apply_kernel<<<g, kBlock>>>(
+            v, plan.view, pick, best,
+            reinterpret_cast<unsigned long long*>(injection_counts_.get()));
+      }
+    }
+  }
+
+ public:
+  std::vector<InjectionCounts> injection_counts() const override {
+    std::vector<InjectionCounts> out(host_->injections.size());
+    if (injection_counts_.size() == 0) return out;
+    std::vector<std::uint64_t> c;
+    injection_counts_.download(c);
+    for (size_t k = 0; k < out.size(); ++k) {
+      out[k].injected = c[2 * k];
+      out[k].missed = c[2 * k + 1];
+    }
+    return out;
+  }
+
+  VirialSums virial(const VirialRegion<Real>& region) override {
     // Allocated on first use only: runs that never ask for stress own no such buffer.
     const int g = blocks_for(n_);
     virial_.resize(static_cast<size_t>(18) * g);
-    virial_kernel<Real, C, T, W><<<g, kBlock>>>(view(), virial_.get());
+    virial_kernel<Real, C, T, W><<<g, kBlock>>>(view(), region, virial_.get());
     check(cudaGetLastError(), "virial kernel");
     std::vector<double> h;
     virial_.download(h);
@@ -536,6 +600,7 @@ class CudaEngine final : public Engine<Real> {
   DeviceBuffer<Real> slab_half_velocity_, slab_velocity_;
   DeviceBuffer<double> slab_partials_;
   DeviceBuffer<unsigned int> count_;
+  DeviceBuffer<std::uint64_t> injection_best_, injection_counts_;  // injection only
   unsigned int* count_host_ = nullptr;
   std::uint64_t corrected_ = 0;
   bool profile_ = false;
