@@ -11,6 +11,7 @@
 #include "pipeline/flow/run_scene.h"
 #include "pipeline/flow/validation.h"
 #include "pipeline/scene.h"
+#include "sim/domain/communicator.h"
 
 namespace mp = mesorock::pipeline;
 namespace ms = mesorock::sim;
@@ -33,7 +34,10 @@ void require_backend(ms::BackendKind b) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return mp::run_main("rockflow", [&]() -> int {
+  // Under mpirun every rank runs this program; MPI starts only then (a plain run never calls
+  // MPI_Init). A rank that fails alone aborts the others, which would wait in a collective.
+  ms::MpiSession mpi(&argc, &argv);
+  const int code = mp::run_main("rockflow", [&]() -> int {
     CLI::App app{"rockflow: the mesorock mDPD flow solver"};
     app.set_version_flag("--version", std::string("rockflow ") + mesorock::kVersion + " (" +
                                           mesorock::kGitCommit + ")");
@@ -79,7 +83,9 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"single", "double"}));
     bench->add_flag("--compare-cpu", compare_cpu, "also run the CPU backend on the same case");
     bench->add_flag("--json", bench_json, "print JSON");
-    bool profile = false;
+    bool profile = false, decompose = false;
+    bench->add_flag("--decompose", decompose,
+                    "run the decomposed (MPI) solver even on one rank, to measure its cost");
     bench->add_flag("--profile", profile, "CUDA: also time each pass (kick, sort, density, force)");
     int cells_per_rc = ms::SimulationOptions{}.cells_per_cutoff;
     bench->add_option("--cells-per-rc", cells_per_rc, "cell-list cells per cutoff (1-4)")
@@ -96,6 +102,9 @@ int main(int argc, char** argv) {
     ms::SimulationOptions so;
     so.backend = parse_backend(backend);
     so.threads = threads;
+    so.comm = mpi.world();
+    // Under mpirun, rank 0 alone prints results.
+    const bool root = !so.comm || so.comm->rank() == 0;
 
     if (*run) {
       require_backend(so.backend);
@@ -103,6 +112,7 @@ int main(int argc, char** argv) {
       mp::RunOptions ro;
       ro.out_dir = out_dir;
       ro.sim = so;
+      ro.sim.decomposition = scene.decomposition;
       mp::run_scene(scene, ro);
       return mp::kExitOk;
     }
@@ -122,10 +132,11 @@ int main(int argc, char** argv) {
       vo.density_kernel =
           kernel == "lucy" ? ms::DensityKernelKind::Lucy : ms::DensityKernelKind::Warren;
       vo.sim = so;
+      vo.verbose = root;
       const auto t0 = std::chrono::steady_clock::now();
       mp::CaseResult r = c->run(vo);
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::cout << (json ? mp::format_case_json(r) + "\n" : mp::format_case_text(r));
+      if (root) std::cout << (json ? mp::format_case_json(r) + "\n" : mp::format_case_text(r));
       return r.pass() ? mp::kExitOk : mp::kExitFailed;
     }
 
@@ -135,6 +146,10 @@ int main(int argc, char** argv) {
       bo.sim = so;
       bo.sim.profile = profile;
       bo.sim.cells_per_cutoff = cells_per_rc;
+      if (decompose) {
+        bo.sim.decomposition.force = true;
+        if (!bo.sim.comm) bo.sim.comm = ms::make_self_communicator();
+      }
       const mp::BenchResult r = mp::run_bench(bo);
       mp::BenchResult cpu;
       if (compare_cpu) {
@@ -144,6 +159,7 @@ int main(int argc, char** argv) {
         co.steps = std::max<std::uint64_t>(5, bo.steps / 20);
         cpu = mp::run_bench(co);
       }
+      if (!root) return mp::kExitOk;
       if (bench_json) {
         std::string out = mp::format_bench_json(r);
         if (compare_cpu) {
@@ -162,4 +178,6 @@ int main(int argc, char** argv) {
     }
     return mp::kExitOk;
   });
+  if (code != mp::kExitOk && mpi.world() && mpi.world()->size() > 1) ms::MpiSession::abort(code);
+  return code;
 }

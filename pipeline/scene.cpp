@@ -738,6 +738,38 @@ void read_injection(const Context& c, Table& top, Scene& s) {
   }
 }
 
+// [decomposition]: how a run under mpirun splits the box over its ranks (sim/domain).
+void read_decomposition(const Context& c, Table& top, Scene& s) {
+  const toml::table* tbl = top.table("decomposition");
+  if (!tbl) return;
+  Table t(c, *tbl, "decomposition", {"method", "axes", "rebalance_every", "halo"});
+  sim::DecompositionOptions& d = s.decomposition;
+  if (const toml::node* n = t.get("method"))
+    d.method = choice_at<sim::DecompositionMethod>(
+        c, *n, "decomposition.method",
+        {{"rcb", sim::DecompositionMethod::RCB}, {"slabs", sim::DecompositionMethod::Slabs}});
+  if (const toml::node* n = t.get("axes")) {
+    const auto names = string_list_at(c, *n, "decomposition.axes");
+    if (names.empty()) fail(c, "decomposition.axes", "must name at least one axis");
+    d.axes = 0;
+    for (size_t i = 0; i < names.size(); ++i) {
+      const toml::value<std::string> v(names[i]);
+      d.axes |= 1u << axis_at(c, v, indexed("decomposition.axes", i));
+    }
+  }
+  if (auto e = t.integer("rebalance_every")) {
+    if (*e < 0)
+      fail(c, "decomposition.rebalance_every", "must be >= 0 (got " + std::to_string(*e) + ")");
+    d.rebalance_every = static_cast<std::uint64_t>(*e);
+  }
+  if (auto h = t.number("halo")) {
+    if (!(*h >= 1 && *h <= 2))
+      fail(c, "decomposition.halo", "must be in [1, 2] rc (got " + num(*h) + ")");
+    d.halo = *h;
+  }
+  t.finish();
+}
+
 void read_output(const Context& c, Table& top, Scene& s) {
   const toml::table* tbl = top.table("output");
   if (!tbl) return;
@@ -918,9 +950,10 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   Scene s;
   s.path = path_for_messages;
   s.source_text = text;
-  Table top(c, root, "",
-            {"name", "seed", "precision", "box", "model", "types", "pairs", "walls",
-             "virtual_walls", "slabs", "injection", "init", "run", "output", "units"});
+  Table top(
+      c, root, "",
+      {"name", "seed", "precision", "box", "model", "types", "pairs", "walls", "virtual_walls",
+       "slabs", "injection", "init", "run", "output", "units", "decomposition"});
   const std::string stem = path_for_messages.stem().string();
   s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
   if (s.name.empty()) fail(c, "name", "must not be empty");
@@ -944,6 +977,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   read_stages(c, top, s);
   read_output(c, top, s);
   read_units(c, top, s);
+  read_decomposition(c, top, s);
   if (s.model.body_force_profile == sim::BodyForceProfile::Reversed && !s.model.has_body_force())
     fail(c, "model.body_force_profile", "\"reversed\" needs a body_force on at least one type");
   if (s.model.body_force_profile == sim::BodyForceProfile::Reversed &&

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/domain/decomposition.h"
 #include "sim/model.h"
 
 namespace mesorock::pipeline {
@@ -80,6 +81,8 @@ struct Scene {
   std::vector<StageSpec> stages;
   OutputSpec output;
   UnitsSpec units;
+  // How a run under mpirun splits the box over its ranks ([decomposition]; ignored by one rank).
+  sim::DecompositionOptions decomposition;
   std::string source_text;  // the file's text, recorded in outputs
 };
 

@@ -9,6 +9,10 @@ struct Box {
   Real lo[3] = {0, 0, 0};
   Real length[3] = {1, 1, 1};
   bool periodic[3] = {true, true, true};
+  // A face across which particles leave freely: a rank's face inside a decomposed box
+  // (sim/domain). Only on non-periodic axes; reflective otherwise.
+  bool open_lo[3] = {false, false, false};
+  bool open_hi[3] = {false, false, false};
 
   MESO_HD Real hi(int axis) const { return lo[axis] + length[axis]; }
   MESO_HD Real volume() const { return length[0] * length[1] * length[2]; }

@@ -58,17 +58,17 @@ class CellSorter {
 };
 
 template <class Real, class Terms>
-class CpuEngine final : public Engine<Real> {
+class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
  public:
   explicit CpuEngine(int threads) : threads_(threads) {}
 
   const char* name() const override { return "cpu"; }
 
-  void initialize(HostState<Real>& host) override {
+  void initialize(HostState<Real>& host, StepHooks<Real>* hooks) override {
     s_ = &host;
+    hooks_ = hooks;
     compute_forces();
-    for (size_t k = 0; k < s_->slab_bodies.size(); ++k)
-      slab_set_force(s_->slab_bodies[k], slab_pair_force(static_cast<int>(k)));
+    set_slab_forces(false);
   }
 
   void advance(std::uint64_t steps) override {
@@ -84,14 +84,11 @@ class CpuEngine final : public Engine<Real> {
       for (int i = 0; i < n; ++i) kick_drift<Real, Terms::thermostat::enabled>(v, i);
       ++s_->step;
       compute_forces();
-      for (size_t b = 0; b < s_->slab_bodies.size(); ++b) {
-        slab_set_force(s_->slab_bodies[b], slab_pair_force(static_cast<int>(b)));
-        slab_full_kick(s_->slab_bodies[b], s_->dt);
-        s_->slab_velocity[b] = static_cast<Real>(s_->slab_bodies[b].velocity);
-      }
+      set_slab_forces(true);
       const StepView<Real> w = s_->view();
+      const int m = w.n;  // the decomposition may have changed the count
 #pragma omp parallel for schedule(static)
-      for (int i = 0; i < n; ++i) kick(w, i);
+      for (int i = 0; i < m; ++i) kick(w, i);
       if (!s_->injections.empty()) inject();
     }
   }
@@ -108,6 +105,7 @@ class CpuEngine final : public Engine<Real> {
         std::uint64_t best = kNoInjectionCandidate;
         for (int i = 0; i < v.n; ++i)
           best = std::min(best, injection_key_of(v, plan.view, i, pick));
+        if (hooks_) best = hooks_->min(best);
         if (best == kNoInjectionCandidate) {
           ++counts_[k].missed;
           continue;
@@ -119,6 +117,15 @@ class CpuEngine final : public Engine<Real> {
           }
       }
     }
+  }
+
+  void neighbour_counts(std::vector<int>& counts) override {
+    ThreadScope scope(threads_);
+    const StepView<Real> v = s_->view();
+    counts.assign(static_cast<size_t>(v.n), 0);
+    const int n = v.n;
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; ++i) counts[static_cast<size_t>(i)] = neighbour_count(v, i);
   }
 
   std::vector<InjectionCounts> injection_counts() const override {
@@ -195,18 +202,25 @@ class CpuEngine final : public Engine<Real> {
   };
 
   // Cell list, density (only with a many-body term), the wall model's phi and corrector (only
-  // with it), forces; for step s_->step.
+  // with it), forces; for step s_->step. With a decomposition: migration and ghosts first, the
+  // ghosts' sums after the density pass.
   void compute_forces() {
     ThreadScope scope(threads_);
+    if (hooks_) hooks_->exchange(*this);
     sorter_.sort(*s_);
     using C = typename Terms::conservative;
     using W = typename Terms::wall_model;
     local_sums();
+    if (hooks_) hooks_->sync_sums(*this);
     if constexpr (W::enabled) {
-      if (correct_penetrations() > 0) {
-        // Corrected particles moved: sort and sum again so the cell list and rho stay exact.
+      const bool corrected = correct_penetrations() > 0;
+      if (hooks_ ? hooks_->any(corrected) : corrected) {
+        // Corrected particles moved: sort and sum again so the cell list and rho stay exact
+        // (and, decomposed, their ghosts follow them first).
+        if (hooks_) hooks_->refresh_ghosts(*this);
         sorter_.sort(*s_);
         local_sums();
+        if (hooks_) hooks_->sync_sums(*this);
       }
     }
     const StepView<Real> v = s_->view();
@@ -238,6 +252,181 @@ class CpuEngine final : public Engine<Real> {
     double sum = 0;
     for (int i = 0; i < v.n; ++i) sum += slab_force_of(v, i, k);
     return sum;
+  }
+
+  // The slabs' forces from the last force pass (summed over the ranks when decomposed), then
+  // (kick) their second half kicks.
+  void set_slab_forces(bool kick) {
+    const size_t count = s_->slab_bodies.size();
+    if (count == 0) return;
+    std::vector<double> f(count);
+    for (size_t b = 0; b < count; ++b) f[b] = slab_pair_force(static_cast<int>(b));
+    if (hooks_) hooks_->sum(f.data(), static_cast<int>(count));
+    for (size_t b = 0; b < count; ++b) {
+      slab_set_force(s_->slab_bodies[b], f[b]);
+      if (!kick) continue;
+      slab_full_kick(s_->slab_bodies[b], s_->dt);
+      s_->slab_velocity[b] = static_cast<Real>(s_->slab_bodies[b].velocity);
+    }
+  }
+
+ public:
+  // ---- DomainStore (sim/domain/exchange.h): the host storage as a decomposition sees it. ----
+  int owned_count() const override {
+    return s_->size() - ghost_count_;
+  }
+
+  void drop_ghosts_take_leavers(const LocalRegion<Real>& region,
+                                std::vector<MigrantRecord<Real>>& leavers) override {
+    HostState<Real>& s = *s_;
+    const int n = s.size();
+    const bool est = !s.vex.empty();
+    keep_.clear();
+    for (int i = 0; i < n; ++i) {
+      if (s.origin[i] < 0) continue;  // a ghost: rebuilt after the migration
+      Real x[3] = {s.x[i], s.y[i], s.z[i]};
+      region.wrap(x);
+      s.x[i] = x[0], s.y[i] = x[1], s.z[i] = x[2];
+      if (region.contains(x)) {
+        keep_.push_back(i);
+        continue;
+      }
+      MigrantRecord<Real> r;
+      for (int a = 0; a < 3; ++a) r.x[a] = x[a];
+      r.v[0] = s.vx[i], r.v[1] = s.vy[i], r.v[2] = s.vz[i];
+      r.ve[0] = est ? s.vex[i] : r.v[0];
+      r.ve[1] = est ? s.vey[i] : r.v[1];
+      r.ve[2] = est ? s.vez[i] : r.v[2];
+      r.f[0] = s.fx[i], r.f[1] = s.fy[i], r.f[2] = s.fz[i];
+      r.type = s.type[i];
+      r.id = s.id[i];
+      leavers.push_back(r);
+    }
+    s.for_each_particle_array([&](auto& a) {
+      for (size_t k = 0; k < keep_.size(); ++k) a[k] = a[static_cast<size_t>(keep_[k])];
+      a.resize(keep_.size());
+    });
+    for (size_t k = 0; k < keep_.size(); ++k) s.origin[k] = static_cast<std::int32_t>(k);
+    ghost_count_ = 0;
+  }
+
+  void add_owned(const std::vector<MigrantRecord<Real>>& in) override {
+    HostState<Real>& s = *s_;
+    for (const MigrantRecord<Real>& r : in) {
+      s.origin.push_back(static_cast<std::int32_t>(s.x.size()));
+      push_particle(r.x, r.v, r.ve, r.f, r.type, r.id);
+    }
+  }
+
+  void pack_ghosts(const std::vector<HaloBox<Real>>& boxes, std::vector<GhostRecord<Real>>& out,
+                   std::vector<int>& counts) override {
+    const HostState<Real>& s = *s_;
+    send_slots_.clear();
+    send_shift_.clear();
+    counts.assign(boxes.size(), 0);
+    const int n = s.size();
+    for (size_t b = 0; b < boxes.size(); ++b) {
+      const HaloBox<Real>& h = boxes[b];
+      for (int i = 0; i < n; ++i) {
+        if (s.origin[i] < 0 || !h.contains(s.x[i], s.y[i], s.z[i])) continue;
+        out.push_back(ghost_record(i, h.shift));
+        send_slots_.push_back(s.origin[i]);
+        send_shift_.push_back(static_cast<int>(b));
+        ++counts[b];
+      }
+    }
+    send_boxes_ = boxes;
+  }
+
+  void add_ghosts(const std::vector<GhostRecord<Real>>& in) override {
+    HostState<Real>& s = *s_;
+    const Real zero[3] = {0, 0, 0};
+    for (size_t k = 0; k < in.size(); ++k) {
+      s.origin.push_back(-1 - static_cast<std::int32_t>(k));
+      push_particle(in[k].x, zero, in[k].ve, zero, in[k].type, in[k].id);
+    }
+    ghost_count_ = static_cast<int>(in.size());
+    s.has_ghosts = true;
+  }
+
+  int sums_per_particle() const override {
+    return s_->bvf.empty() ? 1 : 2;
+  }
+
+  void pack_sums(std::vector<Real>& out) override {
+    map_slots();
+    const bool walls = !s_->bvf.empty();
+    for (std::int32_t slot : send_slots_) {
+      const int i = slot_index_[static_cast<size_t>(slot)];
+      out.push_back(s_->rho[i]);
+      if (walls) out.push_back(s_->bvf[i]);
+    }
+  }
+
+  void set_ghost_sums(const std::vector<Real>& in) override {
+    HostState<Real>& s = *s_;
+    const int per = sums_per_particle();
+    for (int i = 0; i < s.size(); ++i) {
+      if (s.origin[i] >= 0) continue;
+      const size_t k = static_cast<size_t>(-1 - s.origin[i]) * static_cast<size_t>(per);
+      s.rho[i] = in[k];
+      if (per == 2) s.bvf[i] = in[k + 1];
+    }
+  }
+
+  void pack_refresh(std::vector<GhostRecord<Real>>& out) override {
+    map_slots();
+    for (size_t k = 0; k < send_slots_.size(); ++k)
+      out.push_back(ghost_record(slot_index_[static_cast<size_t>(send_slots_[k])],
+                                 send_boxes_[static_cast<size_t>(send_shift_[k])].shift));
+  }
+
+  void set_ghost_refresh(const std::vector<GhostRecord<Real>>& in) override {
+    HostState<Real>& s = *s_;
+    const bool est = !s.vex.empty();
+    for (int i = 0; i < s.size(); ++i) {
+      if (s.origin[i] >= 0) continue;
+      const GhostRecord<Real>& r = in[static_cast<size_t>(-1 - s.origin[i])];
+      s.x[i] = r.x[0], s.y[i] = r.x[1], s.z[i] = r.x[2];
+      if (est) s.vex[i] = r.ve[0], s.vey[i] = r.ve[1], s.vez[i] = r.ve[2];
+    }
+  }
+
+ private:
+  GhostRecord<Real> ghost_record(int i, const Real shift[3]) const {
+    const HostState<Real>& s = *s_;
+    const bool est = !s.vex.empty();
+    GhostRecord<Real> r;
+    r.x[0] = s.x[i] + shift[0], r.x[1] = s.y[i] + shift[1], r.x[2] = s.z[i] + shift[2];
+    r.ve[0] = est ? s.vex[i] : Real(0);
+    r.ve[1] = est ? s.vey[i] : Real(0);
+    r.ve[2] = est ? s.vez[i] : Real(0);
+    r.type = s.type[i];
+    r.id = s.id[i];
+    return r;
+  }
+
+  void push_particle(const Real x[3], const Real v[3], const Real ve[3], const Real f[3],
+                     std::int32_t type, std::int64_t id) {
+    HostState<Real>& s = *s_;
+    // v~ exists only with a thermostat, phi only with the wall model (HostState).
+    if constexpr (Terms::thermostat::enabled)
+      s.vex.push_back(ve[0]), s.vey.push_back(ve[1]), s.vez.push_back(ve[2]);
+    if constexpr (Terms::wall_model::enabled) s.bvf.push_back(Real(0));
+    s.x.push_back(x[0]), s.y.push_back(x[1]), s.z.push_back(x[2]);
+    s.vx.push_back(v[0]), s.vy.push_back(v[1]), s.vz.push_back(v[2]);
+    s.fx.push_back(f[0]), s.fy.push_back(f[1]), s.fz.push_back(f[2]);
+    s.rho.push_back(Real(0));
+    s.type.push_back(type);
+    s.id.push_back(id);
+  }
+
+  // Where each owned slot stands in the (cell-sorted) storage now.
+  void map_slots() {
+    const HostState<Real>& s = *s_;
+    slot_index_.assign(static_cast<size_t>(owned_count()), -1);
+    for (int i = 0; i < s.size(); ++i)
+      if (s.origin[i] >= 0) slot_index_[static_cast<size_t>(s.origin[i])] = i;
   }
 
   // Finds every penetrating particle against the same positions, then applies the corrections.
@@ -277,6 +466,11 @@ class CpuEngine final : public Engine<Real> {
   };
   std::vector<Correction> corrections_;
   std::vector<InjectionCounts> counts_;
+  StepHooks<Real>* hooks_ = nullptr;  // a decomposed run's (sim/domain); null otherwise
+  int ghost_count_ = 0;
+  std::vector<int> keep_, slot_index_, send_shift_;
+  std::vector<std::int32_t> send_slots_;
+  std::vector<HaloBox<Real>> send_boxes_;
   std::uint64_t corrected_ = 0;
   int threads_;
   HostState<Real>* s_ = nullptr;

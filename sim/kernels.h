@@ -40,6 +40,11 @@ struct StepView {
   Real* bvf = nullptr;  // boundary volume fraction phi (wall model only; 0 for wall particles)
   const std::int32_t* type = nullptr;
   const std::int64_t* id = nullptr;
+  // With a domain decomposition (sim/domain), origin < 0 marks a ghost: another rank's particle,
+  // read by the pair terms, never moved, its force never computed. has_ghosts is false otherwise,
+  // so a single-rank run never loads origin.
+  const std::int32_t* origin = nullptr;
+  bool has_ghosts = false;
 
   // Cell list: particles are stored sorted by cell; cell c holds [cell_start[c], cell_start[c+1]).
   const int* cell_start = nullptr;
@@ -65,6 +70,7 @@ struct StepView {
   std::uint64_t step = 0;  // the step whose forces are being computed (keys the pair RNG)
 
   MESO_HD bool frozen(int i) const { return (frozen_mask >> type[i]) & 1u; }
+  MESO_HD bool ghost(int i) const { return has_ghosts && origin[i] < 0; }
 };
 
 // Calls visit(j, dx, dy, dz, r2) for every particle j in the cell stencil around particle i's
@@ -187,6 +193,7 @@ template <class Real, class DensityKernel>
 MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
   // In place, not stashed: this body is cheap, and the stash measured slower here (H200, porous
   // 16 M: 7.8 ms per pass with it, 6.7 without; docs/benchmarks.md).
+  if (v.ghost(i)) return;  // a ghost's density comes from its owner
   Real rho = 0;
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
@@ -203,6 +210,7 @@ MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
 template <class Real, class DensityKernel>
 MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, int i) {
   constexpr bool kDensity = !std::is_void<DensityKernel>::value;
+  if (v.ghost(i)) return;  // a ghost's sums come from its owner
   Real rho = 0, wall = 0;
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
@@ -228,7 +236,7 @@ MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, in
 // sees the same positions (the caller applies the changes).
 template <class Real>
 MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real dv[3]) {
-  if (v.frozen(i) || v.walls.is_wall(v.type[i]) || v.slabs.is_slab(v.type[i]) ||
+  if (v.frozen(i) || v.ghost(i) || v.walls.is_wall(v.type[i]) || v.slabs.is_slab(v.type[i]) ||
       !(v.bvf[i] > v.walls.phi_c))
     return false;
   Real nx = 0, ny = 0, nz = 0;
@@ -335,7 +343,7 @@ template <class Real, class Conservative, class Thermostat, class BodyForce,
 MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i,
                                            const NeighbourStash& stash) {
   Real fx = 0, fy = 0, fz = 0;
-  if (!v.frozen(i)) {
+  if (!v.frozen(i) && !v.ghost(i)) {
     const PairSide<Real> self = pair_side<Real, Conservative, Thermostat>(v, i);
     for_each_neighbour_stashed(v, i, stash, [&](int j, Real dx, Real dy, Real dz, Real r2) {
       const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
@@ -378,16 +386,19 @@ MESO_HD MESO_INLINE void apply_boundary(const StepView<Real>& v, int i, Real* po
     // position in range so the cell lookup stays valid until then.
     if (p >= hi || p < lo) p = lo;
   } else {
-    if (p < lo) {
+    // An open face (a rank's face inside a decomposed box) lets the particle out: the
+    // decomposition hands it to its new owner before the next force pass.
+    const bool open_lo = v.box.open_lo[axis], open_hi = v.box.open_hi[axis];
+    if (p < lo && !open_lo) {
       p = lo + (lo - p);
       vel[i] = -vel[i];
       if constexpr (kVelocityEstimate) vel_est[i] = -vel_est[i];
-    } else if (p >= hi) {
+    } else if (p >= hi && !open_hi) {
       p = hi - (p - hi);
       vel[i] = -vel[i];
       if constexpr (kVelocityEstimate) vel_est[i] = -vel_est[i];
     }
-    if (p < lo || p >= hi) p = lo + Real(0.5) * v.box.length[axis];
+    if ((p < lo && !open_lo) || (p >= hi && !open_hi)) p = lo + Real(0.5) * v.box.length[axis];
   }
   pos[i] = p;
 }
@@ -435,7 +446,7 @@ MESO_HD MESO_INLINE void set_slab_velocity(const StepView<Real>& v, int i, Real 
 
 template <class Real, bool kVelocityEstimate>
 MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
-  if (v.frozen(i)) return;
+  if (v.frozen(i) || v.ghost(i)) return;
   if (v.slabs.count > 0 && v.slabs.is_slab(v.type[i])) {
     const int k = v.slabs.slab_of(v.type[i]);
     const int a = v.slabs.axis[k];
@@ -471,7 +482,7 @@ MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
 // Second half: v += dt/2 f(t + dt).
 template <class Real>
 MESO_HD MESO_INLINE void kick(const StepView<Real>& v, int i) {
-  if (v.frozen(i)) return;
+  if (v.frozen(i) || v.ghost(i)) return;
   if (v.slabs.count > 0 && v.slabs.is_slab(v.type[i])) {
     const int k = v.slabs.slab_of(v.type[i]);
     set_slab_velocity<Real, false>(v, i, v.slabs.velocity[k], v.slabs.axis[k]);
@@ -510,7 +521,7 @@ MESO_HD MESO_INLINE void apply_penetration_correction(const StepView<Real>& v, i
 // reduction sums it over all particles).
 template <class Real>
 MESO_HD MESO_INLINE Real slab_force_of(const StepView<Real>& v, int i, int k) {
-  if (v.type[i] != v.slabs.type[k]) return Real(0);
+  if (v.type[i] != v.slabs.type[k] || v.ghost(i)) return Real(0);
   const int a = v.slabs.axis[k];
   return a == 0 ? v.fx[i] : (a == 1 ? v.fy[i] : v.fz[i]);
 }
@@ -524,6 +535,7 @@ template <class Real>
 MESO_HD MESO_INLINE std::uint64_t injection_key_of(const StepView<Real>& v,
                                                    const InjectionView<Real>& inj, int i,
                                                    int pick) {
+  if (v.ghost(i)) return kNoInjectionCandidate;
   return injection_key(inj, v.x[i], v.y[i], v.z[i], v.type[i], v.id[i], v.step, pick);
 }
 
@@ -559,11 +571,21 @@ struct VirialRegion {
   Real lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
 
   MESO_HD MESO_INLINE bool contains(const StepView<Real>& v, int i) const {
+    if (v.ghost(i)) return false;  // each rank sums its own particles
     if (!active) return true;
     return ((type_mask >> v.type[i]) & 1u) && v.x[i] >= lo[0] && v.x[i] < hi[0] &&
            v.y[i] >= lo[1] && v.y[i] < hi[1] && v.z[i] >= lo[2] && v.z[i] < hi[2];
   }
 };
+
+// Neighbours of particle i within rc (0 for a ghost): the load-balance cost measure.
+template <class Real>
+MESO_HD MESO_INLINE int neighbour_count(const StepView<Real>& v, int i) {
+  if (v.ghost(i)) return 0;
+  int c = 0;
+  for_each_neighbour(v, i, [&](int, Real, Real, Real, Real) { ++c; });
+  return c;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Stress observable: per-particle half of the pair virial, split into conservative, dissipative
@@ -603,7 +625,7 @@ MESO_HD MESO_INLINE ParticleVirial<Real> virial_of_particle(const StepView<Real>
 // outside the grid.
 template <class Real>
 MESO_HD MESO_INLINE int bin_of_particle(const StepView<Real>& v, const BinView<Real>& b, int i) {
-  if (!((b.type_mask >> v.type[i]) & 1u)) return -1;
+  if (!((b.type_mask >> v.type[i]) & 1u) || v.ghost(i)) return -1;
   return b.bin_of(v.x[i], v.y[i], v.z[i]);
 }
 

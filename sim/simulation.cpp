@@ -5,7 +5,10 @@
 #include <sstream>
 
 #include "mesorock/errors.h"
+#include "sim/domain/communicator.h"
+#include "sim/domain/distributed.h"
 #include "sim/engine_cpu.h"
+#include "sim/engine_factory.h"
 #include "sim/state.h"
 #include "sim/terms.h"
 #include "sim/wall_model.h"
@@ -25,7 +28,9 @@ void check_finite(double v, const std::string& what) {
   if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
 }
 
-void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt) {
+}  // namespace
+
+void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt) {
   if (m.ntypes() < 1) throw ConfigError("model has no particle types");
   if (m.ntypes() > 32) throw ConfigError("at most 32 particle types are supported");
   if (m.pairs.size() != static_cast<size_t>(m.ntypes() * m.ntypes()))
@@ -196,152 +201,168 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
 }
 
 template <class Real>
+void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
+                     const ParticleSet& p, double dt, const SimulationOptions& opt) {
+  if (opt.cells_per_cutoff < 1 || opt.cells_per_cutoff > 4)
+    throw ConfigError("cells per cutoff must be 1 to 4 (got " +
+                      std::to_string(opt.cells_per_cutoff) + ")");
+  const int nt = model.ntypes();
+  s.ntypes = nt;
+  s.table.resize(static_cast<size_t>(nt * nt));
+  for (int a = 0; a < nt; ++a)
+    for (int b = 0; b < nt; ++b) {
+      const PairSpec& q = model.pair(a, b);
+      PairParams<Real>& t = s.table[static_cast<size_t>(a * nt + b)];
+      t.A = static_cast<Real>(q.A);
+      t.B = static_cast<Real>(q.B);
+      t.gamma = static_cast<Real>(q.gamma);
+      t.sigma = static_cast<Real>(std::sqrt(2.0 * q.gamma * model.kBT));
+    }
+  s.body_force.resize(static_cast<size_t>(3 * nt));
+  for (int t = 0; t < nt; ++t) {
+    for (int a = 0; a < 3; ++a)
+      s.body_force[static_cast<size_t>(3 * t + a)] =
+          static_cast<Real>(model.types[t].body_force[a]);
+    if (model.types[t].frozen) s.frozen_mask |= (1u << t);
+  }
+  for (int a = 0; a < 3; ++a) {
+    s.box.lo[a] = static_cast<Real>(box.lo[a]);
+    s.box.length[a] = static_cast<Real>(box.length(a));
+    s.box.periodic[a] = box.periodic[a];
+  }
+  s.grid = CellGrid<Real>::make(s.box, Real(1), opt.cells_per_cutoff);
+  if (model.wall_model.enabled) {
+    const WallModelSpec& w = model.wall_model;
+    s.walls.wall_mask = model.wall_mask();
+    s.walls.phi_c = static_cast<Real>(w.penetration_threshold);
+    s.walls.reflection = w.reflection;
+    s.walls.inv_wall_density = static_cast<Real>(1.0 / w.wall_density);
+    s.walls.slip_factor = static_cast<Real>(w.slip_factor);
+    s.walls.phi_max = Real(0.5);
+    const std::vector<double> table = tabulate_kappa(kKappaEntries, 0.5, w.max_dissipation_factor);
+    s.walls.entries = kKappaEntries;
+    s.kappa.assign(table.begin(), table.end());
+    s.bvf.assign(p.size(), Real(0));
+  }
+  s.virtual_walls.count = static_cast<int>(model.virtual_walls.size());
+  for (size_t k = 0; k < model.virtual_walls.size(); ++k) {
+    const VirtualWallSpec& w = model.virtual_walls[k];
+    s.virtual_walls.axis[k] = w.axis;
+    s.virtual_walls.position[k] = static_cast<Real>(w.position);
+    s.virtual_walls.type_mask[k] = w.types;
+    s.virtual_walls.keep_below[k] = w.keep_below;
+    s.virtual_walls.until_step[k] = w.until_step;
+  }
+  for (const RigidSlabSpec& r : model.rigid_slabs) {
+    const int k = s.slabs.count++;
+    s.slabs.mask |= 1u << r.type;
+    s.slabs.type[k] = r.type;
+    s.slabs.axis[k] = r.axis;
+    RigidSlabBody b;
+    b.type = r.type;
+    b.axis = r.axis;
+    double area = 1;
+    for (int a = 0; a < 3; ++a)
+      if (a != r.axis) area *= box.length(a);
+    b.applied_force = r.applied_pressure * area;
+    b.mass = static_cast<double>(std::count(p.type.begin(), p.type.end(), r.type));
+    s.slab_bodies.push_back(b);
+  }
+  for (size_t k = 0; k < model.injections.size(); ++k) {
+    const InjectionSpec& q = model.injections[k];
+    InjectionPlan<Real> plan;
+    plan.view.inject_type = q.inject_type;
+    plan.view.eject_types = q.eject_types;
+    for (int a = 0; a < 3; ++a) {
+      plan.view.inlet_lo[a] = static_cast<Real>(q.inlet_lo[a]);
+      plan.view.inlet_hi[a] = static_cast<Real>(q.inlet_hi[a]);
+      plan.view.outlet_lo[a] = static_cast<Real>(q.outlet_lo[a]);
+      plan.view.outlet_hi[a] = static_cast<Real>(q.outlet_hi[a]);
+    }
+    plan.view.sqrt_kBT = static_cast<Real>(std::sqrt(model.kBT));
+    plan.view.seed = model.seed;
+    plan.view.index = static_cast<int>(k);
+    plan.every = q.every;
+    plan.start_step = q.start_step;
+    plan.stop_step = q.stop_step;
+    plan.per_event = q.per_event;
+    s.injections.push_back(plan);
+  }
+  s.slab_half_velocity.assign(s.slab_bodies.size(), Real(0));
+  s.slab_velocity.assign(s.slab_bodies.size(), Real(0));
+  s.body_force_axis = model.body_force_axis;
+  s.body_force_midplane =
+      static_cast<Real>(0.5 * (box.lo[static_cast<size_t>(model.body_force_axis)] +
+                               box.hi[static_cast<size_t>(model.body_force_axis)]));
+  s.rd = static_cast<Real>(model.rd);
+  s.dt = static_cast<Real>(dt);
+  s.lambda = static_cast<Real>(model.lambda);
+  s.seed = model.seed;
+  s.step = 0;
+  const size_t n = p.size();
+  auto conv = [&](const std::vector<double>& in, std::vector<Real>& out) {
+    out.resize(n);
+    for (size_t i = 0; i < n; ++i) out[i] = static_cast<Real>(in[i]);
+  };
+  conv(p.x, s.x);
+  conv(p.y, s.y);
+  conv(p.z, s.z);
+  conv(p.vx, s.vx);
+  conv(p.vy, s.vy);
+  conv(p.vz, s.vz);
+  // A position exactly on the upper face of a periodic box belongs at the lower face.
+  for (size_t i = 0; i < n; ++i) {
+    Real* c[3] = {&s.x[i], &s.y[i], &s.z[i]};
+    for (int a = 0; a < 3; ++a) {
+      const Real hi = s.box.lo[a] + s.box.length[a];
+      if (*c[a] >= hi) *c[a] = s.box.periodic[a] ? s.box.lo[a] : std::nextafter(hi, s.box.lo[a]);
+      if (*c[a] < s.box.lo[a]) *c[a] = s.box.lo[a];
+    }
+  }
+  s.type = p.type;
+  s.id = p.id;
+  // Shared by every engine: original order, zeroed forces and densities, and v~ = v only when
+  // the thermostat needs it (an unused observable or term owns no memory).
+  s.origin.resize(n);
+  for (size_t i = 0; i < n; ++i) s.origin[i] = static_cast<std::int32_t>(i);
+  for (auto* a : {&s.fx, &s.fy, &s.fz, &s.rho}) a->assign(n, Real(0));
+  if (model.thermostat) {
+    s.vex = s.vx;
+    s.vey = s.vy;
+    s.vez = s.vz;
+  }
+}
+
+template <class Real>
+std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& opt) {
+  if (opt.backend == BackendKind::CPU) return make_cpu_engine<Real>(model, opt.threads);
+#if defined(MESOROCK_HAVE_CUDA)
+  return make_cuda_engine<Real>(model, opt.device, opt.profile);
+#else
+  throw DeviceError(cuda_unavailable_reason());
+#endif
+}
+
+template std::unique_ptr<Engine<float>> make_engine<float>(const Model&, const SimulationOptions&);
+template std::unique_ptr<Engine<double>> make_engine<double>(const Model&,
+                                                             const SimulationOptions&);
+template void init_host_state<float>(HostState<float>&, const Model&, const BoxSpec&,
+                                     const ParticleSet&, double, const SimulationOptions&);
+template void init_host_state<double>(HostState<double>&, const Model&, const BoxSpec&,
+                                      const ParticleSet&, double, const SimulationOptions&);
+
+namespace {
+
+template <class Real>
 class SimulationImpl final : public Simulation {
  public:
   SimulationImpl(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
                  const SimulationOptions& opt)
       : model_(model), box_(box), dt_(dt) {
-    if (opt.cells_per_cutoff < 1 || opt.cells_per_cutoff > 4)
-      throw ConfigError("cells per cutoff must be 1 to 4 (got " +
-                        std::to_string(opt.cells_per_cutoff) + ")");
+    init_host_state(state_, model, box, p, dt, opt);
     HostState<Real>& s = state_;
-    const int nt = model.ntypes();
-    s.ntypes = nt;
-    s.table.resize(static_cast<size_t>(nt * nt));
-    for (int a = 0; a < nt; ++a)
-      for (int b = 0; b < nt; ++b) {
-        const PairSpec& q = model.pair(a, b);
-        PairParams<Real>& t = s.table[static_cast<size_t>(a * nt + b)];
-        t.A = static_cast<Real>(q.A);
-        t.B = static_cast<Real>(q.B);
-        t.gamma = static_cast<Real>(q.gamma);
-        t.sigma = static_cast<Real>(std::sqrt(2.0 * q.gamma * model.kBT));
-      }
-    s.body_force.resize(static_cast<size_t>(3 * nt));
-    for (int t = 0; t < nt; ++t) {
-      for (int a = 0; a < 3; ++a)
-        s.body_force[static_cast<size_t>(3 * t + a)] =
-            static_cast<Real>(model.types[t].body_force[a]);
-      if (model.types[t].frozen) s.frozen_mask |= (1u << t);
-    }
-    for (int a = 0; a < 3; ++a) {
-      s.box.lo[a] = static_cast<Real>(box.lo[a]);
-      s.box.length[a] = static_cast<Real>(box.length(a));
-      s.box.periodic[a] = box.periodic[a];
-    }
-    s.grid = CellGrid<Real>::make(s.box, Real(1), opt.cells_per_cutoff);
-    if (model.wall_model.enabled) {
-      const WallModelSpec& w = model.wall_model;
-      s.walls.wall_mask = model.wall_mask();
-      s.walls.phi_c = static_cast<Real>(w.penetration_threshold);
-      s.walls.reflection = w.reflection;
-      s.walls.inv_wall_density = static_cast<Real>(1.0 / w.wall_density);
-      s.walls.slip_factor = static_cast<Real>(w.slip_factor);
-      s.walls.phi_max = Real(0.5);
-      const std::vector<double> table =
-          tabulate_kappa(kKappaEntries, 0.5, w.max_dissipation_factor);
-      s.walls.entries = kKappaEntries;
-      s.kappa.assign(table.begin(), table.end());
-      s.bvf.assign(p.size(), Real(0));
-    }
-    s.virtual_walls.count = static_cast<int>(model.virtual_walls.size());
-    for (size_t k = 0; k < model.virtual_walls.size(); ++k) {
-      const VirtualWallSpec& w = model.virtual_walls[k];
-      s.virtual_walls.axis[k] = w.axis;
-      s.virtual_walls.position[k] = static_cast<Real>(w.position);
-      s.virtual_walls.type_mask[k] = w.types;
-      s.virtual_walls.keep_below[k] = w.keep_below;
-      s.virtual_walls.until_step[k] = w.until_step;
-    }
-    for (const RigidSlabSpec& r : model.rigid_slabs) {
-      const int k = s.slabs.count++;
-      s.slabs.mask |= 1u << r.type;
-      s.slabs.type[k] = r.type;
-      s.slabs.axis[k] = r.axis;
-      RigidSlabBody b;
-      b.type = r.type;
-      b.axis = r.axis;
-      double area = 1;
-      for (int a = 0; a < 3; ++a)
-        if (a != r.axis) area *= box.length(a);
-      b.applied_force = r.applied_pressure * area;
-      b.mass = static_cast<double>(std::count(p.type.begin(), p.type.end(), r.type));
-      s.slab_bodies.push_back(b);
-    }
-    for (size_t k = 0; k < model.injections.size(); ++k) {
-      const InjectionSpec& q = model.injections[k];
-      InjectionPlan<Real> plan;
-      plan.view.inject_type = q.inject_type;
-      plan.view.eject_types = q.eject_types;
-      for (int a = 0; a < 3; ++a) {
-        plan.view.inlet_lo[a] = static_cast<Real>(q.inlet_lo[a]);
-        plan.view.inlet_hi[a] = static_cast<Real>(q.inlet_hi[a]);
-        plan.view.outlet_lo[a] = static_cast<Real>(q.outlet_lo[a]);
-        plan.view.outlet_hi[a] = static_cast<Real>(q.outlet_hi[a]);
-      }
-      plan.view.sqrt_kBT = static_cast<Real>(std::sqrt(model.kBT));
-      plan.view.seed = model.seed;
-      plan.view.index = static_cast<int>(k);
-      plan.every = q.every;
-      plan.start_step = q.start_step;
-      plan.stop_step = q.stop_step;
-      plan.per_event = q.per_event;
-      s.injections.push_back(plan);
-    }
-    s.slab_half_velocity.assign(s.slab_bodies.size(), Real(0));
-    s.slab_velocity.assign(s.slab_bodies.size(), Real(0));
-    s.body_force_axis = model.body_force_axis;
-    s.body_force_midplane =
-        static_cast<Real>(0.5 * (box.lo[static_cast<size_t>(model.body_force_axis)] +
-                                 box.hi[static_cast<size_t>(model.body_force_axis)]));
-    s.rd = static_cast<Real>(model.rd);
-    s.dt = static_cast<Real>(dt);
-    s.lambda = static_cast<Real>(model.lambda);
-    s.seed = model.seed;
-    s.step = 0;
-    const size_t n = p.size();
-    auto conv = [&](const std::vector<double>& in, std::vector<Real>& out) {
-      out.resize(n);
-      for (size_t i = 0; i < n; ++i) out[i] = static_cast<Real>(in[i]);
-    };
-    conv(p.x, s.x);
-    conv(p.y, s.y);
-    conv(p.z, s.z);
-    conv(p.vx, s.vx);
-    conv(p.vy, s.vy);
-    conv(p.vz, s.vz);
-    // A position exactly on the upper face of a periodic box belongs at the lower face.
-    for (size_t i = 0; i < n; ++i) {
-      Real* c[3] = {&s.x[i], &s.y[i], &s.z[i]};
-      for (int a = 0; a < 3; ++a) {
-        const Real hi = s.box.lo[a] + s.box.length[a];
-        if (*c[a] >= hi) *c[a] = s.box.periodic[a] ? s.box.lo[a] : std::nextafter(hi, s.box.lo[a]);
-        if (*c[a] < s.box.lo[a]) *c[a] = s.box.lo[a];
-      }
-    }
-    s.type = p.type;
-    s.id = p.id;
-    // Shared by every engine: original order, zeroed forces and densities, and v~ = v only when
-    // the thermostat needs it (an unused observable or term owns no memory).
-    s.origin.resize(n);
-    for (size_t i = 0; i < n; ++i) s.origin[i] = static_cast<std::int32_t>(i);
-    for (auto* a : {&s.fx, &s.fy, &s.fz, &s.rho}) a->assign(n, Real(0));
-    if (model.thermostat) {
-      s.vex = s.vx;
-      s.vey = s.vy;
-      s.vez = s.vz;
-    }
-
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
-    if (opt.backend == BackendKind::CPU) {
-      engine_ = make_cpu_engine<Real>(model, opt.threads);
-    } else {
-#if defined(MESOROCK_HAVE_CUDA)
-      engine_ = make_cuda_engine<Real>(model, opt.device, opt.profile);
-#else
-      throw DeviceError(cuda_unavailable_reason());
-#endif
-    }
+    engine_ = make_engine<Real>(model, opt);
     engine_->initialize(s);
     // The initial forces may live only on the device: the next read downloads them.
     host_current_ = false;
@@ -356,15 +377,9 @@ class SimulationImpl final : public Simulation {
     dt_ = dt;
     engine_->set_dt(static_cast<Real>(dt));
   }
-  double dt() const override {
-    return dt_;
-  }
-  std::uint64_t step() const override {
-    return engine_->step();
-  }
-  size_t size() const override {
-    return static_cast<size_t>(state_.size());
-  }
+  double dt() const override { return dt_; }
+  std::uint64_t step() const override { return engine_->step(); }
+  size_t size() const override { return static_cast<size_t>(state_.size()); }
 
   ParticleSet particles() override {
     sync();
@@ -391,9 +406,7 @@ class SimulationImpl final : public Simulation {
     return in_original_order(state_.bvf);
   }
 
-  std::uint64_t wall_corrections() const override {
-    return engine_->wall_corrections();
-  }
+  std::uint64_t wall_corrections() const override { return engine_->wall_corrections(); }
 
   std::vector<RigidSlabState> rigid_slabs() override {
     sync();
@@ -447,9 +460,7 @@ class SimulationImpl final : public Simulation {
     return m;
   }
 
-  StressSample stress() override {
-    return stress_of(VirialRegion<Real>{}, box_.volume());
-  }
+  StressSample stress() override { return stress_of(VirialRegion<Real>{}, box_.volume()); }
 
   StressSample region_stress(const RegionSelection& r) override {
     VirialRegion<Real> region;
@@ -465,9 +476,7 @@ class SimulationImpl final : public Simulation {
     return stress_of(region, volume);
   }
 
-  std::vector<InjectionCounts> injections() override {
-    return engine_->injection_counts();
-  }
+  std::vector<InjectionCounts> injections() override { return engine_->injection_counts(); }
 
  private:
   StressSample stress_of(const VirialRegion<Real>& region, double volume) {
@@ -507,24 +516,12 @@ class SimulationImpl final : public Simulation {
     return sums;
   }
 
-  const Model& model() const override {
-    return model_;
-  }
-  const BoxSpec& box() const override {
-    return box_;
-  }
-  std::string backend_name() const override {
-    return engine_->name();
-  }
-  std::string pass_name() const override {
-    return pass_name_;
-  }
-  std::size_t device_bytes() const override {
-    return engine_->device_bytes();
-  }
-  std::string profile_report() const override {
-    return engine_->profile_report();
-  }
+  const Model& model() const override { return model_; }
+  const BoxSpec& box() const override { return box_; }
+  std::string backend_name() const override { return engine_->name(); }
+  std::string pass_name() const override { return pass_name_; }
+  std::size_t device_bytes() const override { return engine_->device_bytes(); }
+  std::string profile_report() const override { return engine_->profile_report(); }
 
  private:
   // Storage is sorted by cell; callers see particles in the order they were given.
@@ -557,7 +554,9 @@ class SimulationImpl final : public Simulation {
 std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& box,
                                             const ParticleSet& particles, double dt,
                                             const SimulationOptions& options) {
-  validate(model, box, particles, dt);
+  validate_inputs(model, box, particles, dt);
+  if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
+    return make_distributed_simulation(model, box, particles, dt, options);
   if (options.backend == BackendKind::CUDA) {
     const std::string why = cuda_unavailable_reason();
     if (!why.empty()) throw DeviceError(why);

@@ -7,10 +7,13 @@
 #include <string>
 #include <vector>
 
+#include "sim/domain/decomposition.h"
 #include "sim/model.h"
 #include "sim/observables.h"
 
 namespace mesorock::sim {
+
+class Communicator;
 
 enum class BackendKind { CPU, CUDA };
 inline const char* to_string(BackendKind b) {
@@ -26,6 +29,10 @@ struct SimulationOptions {
   // speed and the order of force sums (so results at round-off), not the physics. 1 measured
   // fastest on the GPU (docs/benchmarks.md); the CPU is indifferent.
   int cells_per_cutoff = 1;
+  // Ranks of a domain decomposition (sim/domain): a communicator of more than one rank makes a
+  // decomposed run; null or one rank runs the plain single-rank solver.
+  std::shared_ptr<Communicator> comm;
+  DecompositionOptions decomposition;
 };
 
 // Stress tensor parts in Voigt order xx yy zz xy xz yz; sigma = (kinetic + virial) / V, with the
@@ -109,6 +116,14 @@ class Simulation {
   virtual std::string pass_name() const = 0;     // the compiled term set this run uses
   virtual std::size_t device_bytes() const = 0;  // device memory held by the backend
   virtual std::string profile_report() const = 0;
+
+  // A decomposed run: this rank, the ranks, and each rank's cost now (the load-balance measure:
+  // sum over its particles of neighbours x (1 for a frozen particle, 4.5 for a mobile one: the
+  // density pass, plus the force pass at about 3.5 times its cost). Single rank: 0, 1, {}.
+  virtual int rank() const { return 0; }
+  virtual int ranks() const { return 1; }
+  virtual std::vector<double> rank_costs() { return {}; }
+  virtual std::string decomposition_report() const { return ""; }
 };
 
 // Validates the inputs (ConfigError with the reason) and builds the simulation. Initial forces are

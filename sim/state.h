@@ -8,6 +8,7 @@
 
 #include "sim/box.h"
 #include "sim/cell_grid.h"
+#include "sim/domain/exchange.h"
 #include "sim/kernels.h"
 #include "sim/model.h"
 #include "sim/pair_terms.h"
@@ -24,6 +25,7 @@ struct HostState {
   // cell, and outputs are returned in the caller's original order through this.
   std::vector<std::int32_t> origin;
   std::vector<int> cell_start;  // cell list over the cell-sorted storage (built by the engine)
+  bool has_ghosts = false;      // a decomposed run's storage holds ghosts (origin < 0)
 
   std::vector<PairParams<Real>> table;  // ntypes x ntypes
   std::vector<Real> body_force;         // ntypes x 3
@@ -48,6 +50,18 @@ struct HostState {
 
   int size() const { return static_cast<int>(x.size()); }
 
+  // Calls f on every per-particle array that is in use (v~ exists only with a thermostat, phi
+  // only with the wall model), Real arrays first, then type, id, origin.
+  template <class F>
+  void for_each_particle_array(F&& f) {
+    const size_t n = x.size();
+    for (auto* a : {&x, &y, &z, &vx, &vy, &vz, &vex, &vey, &vez, &fx, &fy, &fz, &rho, &bvf})
+      if (a->size() == n) f(*a);
+    f(type);
+    f(id);
+    f(origin);
+  }
+
   // Raw-pointer view of the host arrays for the kernel bodies.
   StepView<Real> view() {
     StepView<Real> v;
@@ -65,6 +79,8 @@ struct HostState {
     v.walls.kappa = kappa.empty() ? nullptr : kappa.data();
     v.type = type.data();
     v.id = id.data();
+    v.origin = origin.data();
+    v.has_ghosts = has_ghosts;
     v.cell_start = cell_start.data();
     v.box = box;
     v.grid = grid;
@@ -102,7 +118,9 @@ class Engine {
   virtual ~Engine() = default;
   virtual const char* name() const = 0;
   // Takes the host state as the initial condition and computes the forces of step `host.step`.
-  virtual void initialize(HostState<Real>& host) = 0;
+  // With a domain decomposition, `hooks` are called between the phases of every step
+  // (sim/domain/exchange.h) and the engine's storage is the DomainStore they work on.
+  virtual void initialize(HostState<Real>& host, StepHooks<Real>* hooks = nullptr) = 0;
   virtual void advance(std::uint64_t steps) = 0;
   virtual void set_dt(Real dt) = 0;
   // Brings host positions, velocities, forces and densities up to date.
@@ -116,6 +134,9 @@ class Engine {
   virtual std::uint64_t step() const = 0;
   // Fluid particles put back out of a wall by the wall model so far (0 without it).
   virtual std::uint64_t wall_corrections() const { return 0; }
+  // Neighbours within rc of each stored particle (0 for ghosts), over the cell list of the last
+  // force pass: the load-balance cost measure of a decomposed run.
+  virtual void neighbour_counts(std::vector<int>& counts) = 0;
   // Per injection/ejection boundary: particles moved and events without a candidate.
   virtual std::vector<InjectionCounts> injection_counts() const { return {}; }
   // Bytes of device memory this engine holds (0 on the CPU).

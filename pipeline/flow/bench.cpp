@@ -10,6 +10,7 @@
 
 #include "mesorock/errors.h"
 #include "pipeline/flow/systems.h"
+#include "sim/domain/communicator.h"
 
 namespace mesorock::pipeline {
 
@@ -51,6 +52,8 @@ BenchResult run_bench(const BenchOptions& o) {
   r.particles = static_cast<std::int64_t>(sim->size());
   r.steps = o.steps;
   r.cells_per_rc = o.sim.cells_per_cutoff;
+  r.ranks = sim->ranks();
+  r.decomposed = o.sim.comm && (o.sim.comm->size() > 1 || o.sim.decomposition.force);
   r.threads = o.sim.backend == sim::BackendKind::CPU
                   ? (o.sim.threads > 0 ? o.sim.threads : omp_get_max_threads())
                   : 0;
@@ -82,7 +85,9 @@ std::string format_bench_json(const BenchResult& r) {
                       {"mps", r.mps},
                       {"setup_seconds", r.setup_seconds},
                       {"gpu_bytes_per_particle", r.device_bytes_per_particle},
-                      {"cells_per_rc", r.cells_per_rc}};
+                      {"cells_per_rc", r.cells_per_rc},
+                      {"ranks", r.ranks},
+                      {"decomposed", r.decomposed}};
   if (!r.profile.empty()) j["profile"] = r.profile;
   return j.dump();
 }
@@ -92,6 +97,7 @@ std::string format_bench_text(const BenchResult& r) {
   s << std::setprecision(4) << "bench " << r.case_name << ": " << r.particles << " particles x "
     << r.steps << " steps on " << r.backend;
   if (r.threads > 0) s << " (" << r.threads << " threads)";
+  if (r.decomposed) s << ", decomposed over " << r.ranks << " rank(s)";
   s << ", " << r.precision << " precision, " << r.cells_per_rc << " cells per rc: " << r.seconds
     << " s, " << r.mps << " MPS/s";
   if (r.device_bytes_per_particle > 0)

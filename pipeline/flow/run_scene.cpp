@@ -171,11 +171,15 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
   auto sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
 
+  // A decomposed run (mpirun): every rank takes part in every step and every observable (they
+  // are collective); rank 0 alone writes files and progress.
+  const bool root = sim->rank() == 0;
+  const bool progress = o.progress && root;
   std::error_code ec;
-  fs::create_directories(o.out_dir, ec);
+  if (root) fs::create_directories(o.out_dir, ec);
   if (ec) throw IoError(o.out_dir.string() + ": cannot create output folder: " + ec.message());
 
-  if (o.progress)
+  if (progress)
     std::cerr << "rockflow: " << scene.path.string() << ": " << sim->size() << " particles, "
               << sim->pass_name() << ", backend " << sim->backend_name() << ", "
               << sim::to_string(scene.model.precision) << " precision\n";
@@ -196,7 +200,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   const fs::path thermo_tmp = temporary_path_for(thermo_path);
   std::ofstream thermo;
   const std::uint64_t thermo_every = scene.output.thermo_every;
-  if (thermo_every > 0) {
+  if (thermo_every > 0 && root) {
     thermo.open(thermo_tmp);
     if (!thermo) throw IoError(thermo_path.string() + ": cannot open for writing");
     thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene " << scene.path.string()
@@ -213,7 +217,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   bool any_saturation = false, any_pressure = false;
   for (const auto& r : regions) any_saturation = any_saturation || r.saturation_type >= 0;
   for (const auto& r : regions) any_pressure = any_pressure || r.spec->pressure;
-  if (!regions.empty()) {
+  if (!regions.empty() && root) {
     region_rows.open(temporary_path_for(regions_path));
     if (!region_rows) throw IoError(regions_path.string() + ": cannot open for writing");
     region_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
@@ -246,7 +250,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   // injection.csv: particles moved by each injection/ejection boundary, at every thermo row.
   const fs::path injection_path = o.out_dir / "injection.csv";
   std::ofstream injection_rows;
-  if (!scene.model.injections.empty() && thermo_every > 0) {
+  if (!scene.model.injections.empty() && thermo_every > 0 && root) {
     injection_rows.open(temporary_path_for(injection_path));
     if (!injection_rows) throw IoError(injection_path.string() + ": cannot open for writing");
     injection_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
@@ -256,8 +260,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     injection_rows << "step,time,stage,boundary,type,injected,missed\n";
   }
   auto write_injection_rows = [&](std::uint64_t step, double t, const std::string& stage) {
+    if (scene.model.injections.empty() || thermo_every == 0) return;
+    const auto counts = sim->injections();  // collective
     if (!injection_rows.is_open()) return;
-    const auto counts = sim->injections();
     for (size_t k = 0; k < counts.size(); ++k)
       injection_rows
           << step << "," << t << "," << stage << "," << k + 1 << ","
@@ -267,7 +272,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   // slabs.csv: the rigid slabs at every thermo row.
   const fs::path slabs_path = o.out_dir / "slabs.csv";
   std::ofstream slab_rows;
-  if (!scene.model.rigid_slabs.empty() && thermo_every > 0) {
+  if (!scene.model.rigid_slabs.empty() && thermo_every > 0 && root) {
     slab_rows.open(temporary_path_for(slabs_path));
     if (!slab_rows) throw IoError(slabs_path.string() + ": cannot open for writing");
     slab_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
@@ -277,9 +282,38 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     slab_rows << "step,time,stage,slab,axis,position,velocity,force,applied_force\n";
     slab_rows << std::setprecision(10);
   }
+  // balance.csv: a decomposed run's load balance at every thermo row (rank costs, max/mean).
+  const fs::path balance_path = o.out_dir / "balance.csv";
+  std::ofstream balance_rows;
+  std::vector<double> imbalance_series;
+  if (sim->ranks() > 1 && thermo_every > 0 && root) {
+    balance_rows.open(temporary_path_for(balance_path));
+    if (!balance_rows) throw IoError(balance_path.string() + ": cannot open for writing");
+    balance_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                 << scene.path.string() << ": " << sim->decomposition_report()
+                 << "; cost = sum over a rank's particles of neighbours x (1 frozen, 4.5 "
+                    "mobile); imbalance = max / mean cost\n";
+    balance_rows << "step,time,stage,imbalance";
+    for (int r = 0; r < sim->ranks(); ++r) balance_rows << ",cost_rank" << r;
+    balance_rows << "\n" << std::setprecision(8);
+  }
+  auto write_balance_rows = [&](std::uint64_t step, double t, const std::string& stage) {
+    if (sim->ranks() < 2 || thermo_every == 0) return;
+    const std::vector<double> cost = sim->rank_costs();  // collective
+    double sum = 0, max = 0;
+    for (double c : cost) sum += c, max = std::max(max, c);
+    const double imbalance = sum > 0 ? max * static_cast<double>(cost.size()) / sum : 1.0;
+    imbalance_series.push_back(imbalance);
+    if (!balance_rows.is_open()) return;
+    balance_rows << step << "," << t << "," << stage << "," << imbalance;
+    for (double c : cost) balance_rows << "," << c;
+    balance_rows << "\n";
+  };
   auto write_slab_rows = [&](std::uint64_t step, double t, const std::string& stage) {
+    if (scene.model.rigid_slabs.empty() || thermo_every == 0) return;
+    const auto slabs = sim->rigid_slabs();  // collective
     if (!slab_rows.is_open()) return;
-    for (const auto& r : sim->rigid_slabs())
+    for (const auto& r : slabs)
       slab_rows << step << "," << t << "," << stage << "," << r.type << ","
                 << "xyz"[r.axis] << "," << r.position << "," << r.velocity << "," << r.force << ","
                 << r.applied_force << "\n";
@@ -333,23 +367,27 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           if (averaged) series.add(T, st);
           write_slab_rows(now, time, stage.name);
           write_injection_rows(now, time, stage.name);
+          write_balance_rows(now, time, stage.name);
         }
         if (scene.output.snapshot_every > 0 && now % scene.output.snapshot_every == 0) {
           const fs::path dir = o.out_dir / "snapshots";
-          fs::create_directories(dir, ec);
-          if (ec) throw IoError(dir.string() + ": cannot create folder: " + ec.message());
-          particle_meta.step = now;
-          particle_meta.time = time;
-          const fs::path h5 = dir / (step_name(now) + ".h5");
-          sim::write_particle_file(h5, sim->particles(), particle_meta);
-          sim::write_particle_xdmf(dir / (step_name(now) + ".xmf"), h5, sim->size(), time);
+          const sim::ParticleSet snapshot = sim->particles();  // collective
+          if (root) {
+            fs::create_directories(dir, ec);
+            if (ec) throw IoError(dir.string() + ": cannot create folder: " + ec.message());
+            particle_meta.step = now;
+            particle_meta.time = time;
+            const fs::path h5 = dir / (step_name(now) + ".h5");
+            sim::write_particle_file(h5, snapshot, particle_meta);
+            sim::write_particle_xdmf(dir / (step_name(now) + ".xmf"), h5, sim->size(), time);
+          }
         }
         if (averaged)
           for (auto& b : binned)
             if (now % b.spec.every == 0) b.average.add(sim->bin_sums(b.average.grid()));
         sample_regions(*sim, scene, regions, now, time, stage.name, region_rows, saturation_rows,
                        pressure_rows);
-        if (o.progress) {
+        if (progress) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
           const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;
           const double eta = done > 0 ? el * static_cast<double>(stage.steps - done) / done : 0;
@@ -364,7 +402,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         }
       }
       total_steps += stage.steps;
-      if (o.progress && isatty(STDERR_FILENO)) std::cerr << "\n";
+      if (progress && isatty(STDERR_FILENO)) std::cerr << "\n";
     }
   } catch (...) {
     thermo.close();
@@ -374,6 +412,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     slab_rows.close();
     pressure_rows.close();
     injection_rows.close();
+    balance_rows.close();
+    fs::remove(temporary_path_for(balance_path), ec);
     fs::remove(temporary_path_for(slabs_path), ec);
     fs::remove(temporary_path_for(pressure_path), ec);
     fs::remove(temporary_path_for(injection_path), ec);
@@ -390,7 +430,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   for (auto [stream, path] :
        {std::pair{&region_rows, regions_path}, std::pair{&saturation_rows, saturation_path},
         std::pair{&slab_rows, slabs_path}, std::pair{&pressure_rows, pressure_path},
-        std::pair{&injection_rows, injection_path}}) {
+        std::pair{&injection_rows, injection_path}, std::pair{&balance_rows, balance_path}}) {
     if (!stream->is_open()) continue;
     stream->close();
     if (!*stream) throw IoError(path.string() + ": write failed");
@@ -401,8 +441,11 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (scene.output.final_snapshot) {
     particle_meta.step = sim->step();
     particle_meta.time = time;
-    sim::write_particle_file(o.out_dir / "final.h5", sim->particles(), particle_meta);
-    sim::write_particle_xdmf(o.out_dir / "final.xmf", o.out_dir / "final.h5", sim->size(), time);
+    const sim::ParticleSet last = sim->particles();  // collective
+    if (root) {
+      sim::write_particle_file(o.out_dir / "final.h5", last, particle_meta);
+      sim::write_particle_xdmf(o.out_dir / "final.xmf", o.out_dir / "final.h5", sim->size(), time);
+    }
   }
 
   const std::optional<sim::UnitSystem> units =
@@ -415,7 +458,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     meta.time = time;
     meta.provenance_json = provenance.dump();
     meta.units = units;
-    write_binned_outputs(o.out_dir, b.spec, b.average, meta);
+    if (root) write_binned_outputs(o.out_dir, b.spec, b.average, meta);
     binned_json[b.spec.name] = {
         {"samples", b.average.samples()}, {"blocks", b.average.blocks()}, {"every", b.spec.every}};
   }
@@ -456,6 +499,16 @@ void run_scene(const Scene& scene, const RunOptions& o) {
                     {"particles", r.mass}});
     summary["slabs"] = sj;
   }
+  if (sim->ranks() > 1) {
+    double mean = 0, max = 0;
+    for (double v : imbalance_series) mean += v, max = std::max(max, v);
+    if (!imbalance_series.empty()) mean /= static_cast<double>(imbalance_series.size());
+    summary["decomposition"] = {{"ranks", sim->ranks()},
+                                {"regions", sim->decomposition_report()},
+                                {"imbalance_mean", mean},
+                                {"imbalance_max", max},
+                                {"file", "balance.csv"}};
+  }
   if (!scene.model.injections.empty()) {
     nlohmann::json ij = nlohmann::json::array();
     const auto counts = sim->injections();
@@ -487,8 +540,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
                         {"max_dissipation_factor", w.max_dissipation_factor},
                         {"corrections", sim->wall_corrections()}};
   }
-  write_text_atomically(o.out_dir / "summary.json", summary.dump(2) + "\n");
-  if (o.progress)
+  if (root) write_text_atomically(o.out_dir / "summary.json", summary.dump(2) + "\n");
+  if (progress)
     std::cerr << "rockflow: done: " << total_steps << " steps in " << std::setprecision(3)
               << run_seconds << " s; outputs in " << o.out_dir.string()
               << " (summary.json, thermo.csv, final.xmf opens in ParaView)\n";

@@ -8,11 +8,13 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 cmake -S . -B build-gpu -G Ninja -DCMAKE_BUILD_TYPE=Release -DMESOROCK_BUILD_ROCKPREP=OFF \
   -DMESOROCK_ENABLE_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
-cmake --build build-gpu --parallel "$(nproc)" --target rockflow unit_sim unit_gpu
+cmake --build build-gpu --parallel "$(nproc)" --target rockflow unit_sim unit_gpu unit_mpi
 rm -rf .carry/gpu && mkdir -p .carry/gpu/bin .carry/gpu/lib
-cp build-gpu/bin/rockflow build-gpu/bin/unit_sim build-gpu/bin/unit_gpu .carry/gpu/bin/
+cp build-gpu/bin/rockflow build-gpu/bin/unit_sim build-gpu/bin/unit_gpu build-gpu/bin/unit_mpi \
+  .carry/gpu/bin/
 # Only the libraries the GPU machine lacks (toml++). HDF5 is not carried: the machine's own
-# libhdf5_serial.so.103 (1.10) has the same soname and brings its own dependency chain.
+# libhdf5_serial.so.103 (1.10) has the same soname and brings its own dependency chain; likewise
+# Open MPI's libmpi.so.40 (4.1.6 there, 4.1.4 here: the same ABI).
 for lib in $(ldd build-gpu/bin/rockflow | awk '/tomlplusplus/ {print $3}'); do
   cp -L "$lib" .carry/gpu/lib/
 done

@@ -22,11 +22,17 @@ log() { echo "$@" | tee -a "$out/summary.txt"; }
 
 $bin/unit_gpu 2>&1 | tee "$out/unit_gpu.log" | tail -4
 $bin/unit_sim 2>&1 | tee "$out/unit_sim.log" | tail -3
+# The domain decomposition on the GPU: 2 ranks sharing the device, against the single-rank GPU
+# solver (tests/unit/mpi), when mpirun is there.
+if command -v mpirun >/dev/null; then
+  OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 MESOROCK_TEST_BACKEND=cuda \
+    mpirun -np 2 --oversubscribe $bin/unit_mpi 2>&1 | tee "$out/unit_mpi.log" | tail -3
+fi
 
 size=small
 [ "$mode" = full ] && size=full
 [ "$mode" = perf ] && CASES=${CASES:-none}
-for c in ${CASES:-eos-dpd eos-mdpd conservation slab viscosity poiseuille-walls no-penetration}; do
+for c in ${CASES:-eos-dpd eos-mdpd conservation slab viscosity poiseuille-walls no-penetration flooding-mini}; do
   [ "$c" = none ] && continue
   $bin/rockflow validate $c --size $size --backend cuda --json 2>>"$out/validate.log" | tee -a "$out/validate.jsonl" | cut -c1-200
 done
@@ -55,6 +61,8 @@ if [ "$mode" = perf ]; then
 else
   bench $bin/rockflow --case porous --particles 2100000 --steps 200 --compare-cpu --threads $(nproc)
   bench $bin/rockflow --case bulk --particles 1000000 --steps 200
+  # What the decomposed (MPI) path costs on one GPU, next to the plain path above.
+  bench $bin/rockflow --case porous --particles 2100000 --steps 200 --decompose
   if [ "$mode" = full ]; then
     bench $bin/rockflow --case porous --particles 16000000 --steps 100
     bench $bin/rockflow --case bulk --particles 16000000 --steps 100

@@ -6,6 +6,7 @@
 #include <cub/block/block_reduce.cuh>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
+#include <cub/device/device_select.cuh>
 #include <sstream>
 #include <string>
 #include <type_traits>
@@ -38,6 +39,20 @@ class DeviceBuffer {
     if (n == size_) return;
     release();
     if (n > 0) check(cudaMalloc(&ptr_, n * sizeof(T)), "cudaMalloc");
+    size_ = capacity_ = n;
+  }
+  // Changes the size keeping the first min(old, n) elements; grows the allocation by a quarter
+  // beyond n when it must grow (a decomposed run's particle count changes every step).
+  void set_size(size_t n) {
+    if (n > capacity_) {
+      const size_t cap = n + n / 4 + 64;
+      T* p = nullptr;
+      check(cudaMalloc(&p, cap * sizeof(T)), "cudaMalloc");
+      if (size_) check(cudaMemcpy(p, ptr_, size_ * sizeof(T), cudaMemcpyDeviceToDevice), "grow");
+      if (ptr_) cudaFree(ptr_);
+      ptr_ = p;
+      capacity_ = cap;
+    }
     size_ = n;
   }
   void upload(const std::vector<T>& h) {
@@ -55,21 +70,24 @@ class DeviceBuffer {
   void swap(DeviceBuffer& o) {
     std::swap(ptr_, o.ptr_);
     std::swap(size_, o.size_);
+    std::swap(capacity_, o.capacity_);
   }
+  size_t capacity() const { return capacity_; }
 
  private:
   void release() {
     if (ptr_) cudaFree(ptr_);
     ptr_ = nullptr;
-    size_ = 0;
+    size_ = capacity_ = 0;
   }
   T* ptr_ = nullptr;
-  size_t size_ = 0;
+  size_t size_ = 0, capacity_ = 0;
 };
 
 constexpr int kBlock = 128;
+// At least one block: kernels test i < n, and a rank of a decomposed run may hold no particle.
 inline int blocks_for(int n) {
-  return (n + kBlock - 1) / kBlock;
+  return n <= 0 ? 1 : (n + kBlock - 1) / kBlock;
 }
 
 template <class Real, bool kVelocityEstimate>
@@ -214,6 +232,191 @@ __global__ void injection_apply_kernel(StepView<Real> v, InjectionView<Real> inj
   }
 }
 
+template <class Real>
+__global__ void neighbour_count_kernel(StepView<Real> v, int* counts) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) counts[i] = neighbour_count(v, i);
+}
+
+// ---- Domain decomposition (sim/domain/exchange.h): the storage operations, on the device. ----
+// flag: 0 owned and inside the region (position wrapped across periodic faces), 1 leaving, 2 a
+// ghost; keep/leave are the 0/1 flags CUB's stable selection takes.
+template <class Real>
+__global__ void migrate_flag_kernel(StepView<Real> v, LocalRegion<Real> region, unsigned char* keep,
+                                    unsigned char* leave) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n) return;
+  keep[i] = leave[i] = 0;
+  if (v.origin[i] < 0) return;
+  Real x[3] = {v.x[i], v.y[i], v.z[i]};
+  region.wrap(x);
+  v.x[i] = x[0], v.y[i] = x[1], v.z[i] = x[2];
+  const bool inside = region.contains(x);
+  keep[i] = inside;
+  leave[i] = !inside;
+}
+
+template <class Real>
+__global__ void pack_migrants_kernel(StepView<Real> v, const int* idx, int m,
+                                     MigrantRecord<Real>* out) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= m) return;
+  const int i = idx[k];
+  MigrantRecord<Real> r;
+  r.x[0] = v.x[i], r.x[1] = v.y[i], r.x[2] = v.z[i];
+  r.v[0] = v.vx[i], r.v[1] = v.vy[i], r.v[2] = v.vz[i];
+  const bool est = v.vex != nullptr;
+  r.ve[0] = est ? v.vex[i] : r.v[0];
+  r.ve[1] = est ? v.vey[i] : r.v[1];
+  r.ve[2] = est ? v.vez[i] : r.v[2];
+  r.f[0] = v.fx[i], r.f[1] = v.fy[i], r.f[2] = v.fz[i];
+  r.type = v.type[i];
+  r.id = v.id[i];
+  out[k] = r;
+}
+
+template <class Real>
+__global__ void unpack_migrants_kernel(StepView<Real> v, const MigrantRecord<Real>* in, int m,
+                                       int base, std::int32_t* origin) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= m) return;
+  const int i = base + k;
+  const MigrantRecord<Real>& r = in[k];
+  v.x[i] = r.x[0], v.y[i] = r.x[1], v.z[i] = r.x[2];
+  v.vx[i] = r.v[0], v.vy[i] = r.v[1], v.vz[i] = r.v[2];
+  if (v.vex != nullptr) v.vex[i] = r.ve[0], v.vey[i] = r.ve[1], v.vez[i] = r.ve[2];
+  v.fx[i] = r.f[0], v.fy[i] = r.f[1], v.fz[i] = r.f[2];
+  v.rho[i] = Real(0);
+  if (v.bvf != nullptr) v.bvf[i] = Real(0);
+  const_cast<std::int32_t*>(v.type)[i] = r.type;
+  const_cast<std::int64_t*>(v.id)[i] = r.id;
+  origin[i] = base + k;
+}
+
+__global__ void iota_kernel(std::int32_t* a, int n) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) a[i] = i;
+}
+
+template <class Real>
+__global__ void ghost_flag_kernel(StepView<Real> v, HaloBox<Real> box, unsigned char* flag) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) flag[i] = v.origin[i] >= 0 && box.contains(v.x[i], v.y[i], v.z[i]);
+}
+
+template <class Real>
+__device__ MESO_INLINE GhostRecord<Real> ghost_record_of(const StepView<Real>& v, int i,
+                                                         const Real* shift) {
+  GhostRecord<Real> r;
+  r.x[0] = v.x[i] + shift[0], r.x[1] = v.y[i] + shift[1], r.x[2] = v.z[i] + shift[2];
+  const bool est = v.vex != nullptr;
+  r.ve[0] = est ? v.vex[i] : Real(0);
+  r.ve[1] = est ? v.vey[i] : Real(0);
+  r.ve[2] = est ? v.vez[i] : Real(0);
+  r.type = v.type[i];
+  r.id = v.id[i];
+  return r;
+}
+
+template <class Real>
+__global__ void pack_ghosts_kernel(StepView<Real> v, const int* idx, int m, HaloBox<Real> box,
+                                   int box_index, GhostRecord<Real>* out, std::int32_t* slots,
+                                   int* boxes) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= m) return;
+  const int i = idx[k];
+  out[k] = ghost_record_of(v, i, box.shift);
+  slots[k] = v.origin[i];
+  boxes[k] = box_index;
+}
+
+template <class Real>
+__global__ void unpack_ghosts_kernel(StepView<Real> v, const GhostRecord<Real>* in, int m, int base,
+                                     std::int32_t* origin) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= m) return;
+  const int i = base + k;
+  const GhostRecord<Real>& r = in[k];
+  v.x[i] = r.x[0], v.y[i] = r.x[1], v.z[i] = r.x[2];
+  v.vx[i] = v.vy[i] = v.vz[i] = Real(0);
+  if (v.vex != nullptr) v.vex[i] = r.ve[0], v.vey[i] = r.ve[1], v.vez[i] = r.ve[2];
+  v.fx[i] = v.fy[i] = v.fz[i] = Real(0);
+  v.rho[i] = Real(0);
+  if (v.bvf != nullptr) v.bvf[i] = Real(0);
+  const_cast<std::int32_t*>(v.type)[i] = r.type;
+  const_cast<std::int64_t*>(v.id)[i] = r.id;
+  origin[i] = -1 - k;
+}
+
+// Where each owned slot stands in the cell-sorted storage now.
+__global__ void slot_index_kernel(const std::int32_t* origin, int n, int* slot_index) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n && origin[i] >= 0) slot_index[origin[i]] = i;
+}
+
+template <class Real>
+__global__ void pack_sums_kernel(StepView<Real> v, const int* slot_index, const std::int32_t* slots,
+                                 int m, Real* out) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= m) return;
+  const int i = slot_index[slots[k]];
+  const int per = v.bvf != nullptr ? 2 : 1;
+  out[k * per] = v.rho[i];
+  if (per == 2) out[k * per + 1] = v.bvf[i];
+}
+
+template <class Real>
+__global__ void set_ghost_sums_kernel(StepView<Real> v, const Real* in) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n || v.origin[i] >= 0) return;
+  const int per = v.bvf != nullptr ? 2 : 1;
+  const int k = -1 - v.origin[i];
+  v.rho[i] = in[k * per];
+  if (per == 2) v.bvf[i] = in[k * per + 1];
+}
+
+template <class Real>
+__global__ void pack_refresh_kernel(StepView<Real> v, const int* slot_index,
+                                    const std::int32_t* slots, const int* boxes,
+                                    const HaloBox<Real>* box_list, int m, GhostRecord<Real>* out) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k < m) out[k] = ghost_record_of(v, slot_index[slots[k]], box_list[boxes[k]].shift);
+}
+
+template <class Real>
+__global__ void set_ghost_refresh_kernel(StepView<Real> v, const GhostRecord<Real>* in) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n || v.origin[i] >= 0) return;
+  const GhostRecord<Real>& r = in[-1 - v.origin[i]];
+  v.x[i] = r.x[0], v.y[i] = r.x[1], v.z[i] = r.x[2];
+  if (v.vex != nullptr) v.vex[i] = r.ve[0], v.vey[i] = r.ve[1], v.vez[i] = r.ve[2];
+}
+
+// Slab forces of a decomposed run: the per-slab sums go to the host to be summed over the ranks,
+// then come back for the kicks.
+__global__ void slab_sums_kernel(const double* partials, int blocks, int count, double* sums) {
+  using BlockReduce = cub::BlockReduce<double, 256>;
+  __shared__ typename BlockReduce::TempStorage temp;
+  for (int k = 0; k < count; ++k) {
+    double part = 0;
+    for (int b = threadIdx.x; b < blocks; b += blockDim.x)
+      part += partials[static_cast<size_t>(k) * blocks + b];
+    const double sum = BlockReduce(temp).Sum(part);
+    if (threadIdx.x == 0) sums[k] = sum;
+    __syncthreads();
+  }
+}
+
+template <class Real>
+__global__ void slab_apply_kernel(const double* sums, RigidSlabBody* bodies, int count, double dt,
+                                  bool kick, Real* velocity) {
+  const int k = threadIdx.x;
+  if (k >= count) return;
+  slab_set_force(bodies[k], sums[k]);
+  if (kick) slab_full_kick(bodies[k], dt);
+  velocity[k] = static_cast<Real>(bodies[k].velocity);
+}
+
 template <class Real, class C, class T, class B, class W>
 __global__ void force_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -257,7 +460,7 @@ __global__ void bin_kernel(StepView<Real> v, BinView<Real> b, double* sums) {
 }
 
 template <class Real, class Terms>
-class CudaEngine final : public Engine<Real> {
+class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   using C = typename Terms::conservative;
   using T = typename Terms::thermostat;
   using B = typename Terms::body_force;
@@ -277,7 +480,8 @@ class CudaEngine final : public Engine<Real> {
 
   const char* name() const override { return "cuda"; }
 
-  void initialize(HostState<Real>& host) override {
+  void initialize(HostState<Real>& host, StepHooks<Real>* hooks) override {
+    hooks_ = hooks;
     host_ = &host;
     const int n = host.size();
     n_ = n;
@@ -321,27 +525,40 @@ class CudaEngine final : public Engine<Real> {
     check(cudaDeviceSynchronize(), "initial forces");
   }
 
-  // The slabs' total forces from the last force pass, then (kick) their second half kick.
+  // The slabs' total forces from the last force pass, then (kick) their second half kick. A
+  // decomposed run sums them over the ranks on the host in between.
   void slab_forces(bool kick) {
     const int g = blocks_for(n_);
+    slab_partials_.set_size(static_cast<size_t>(nslabs_) * g);
     slab_partials_kernel<Real><<<g, kBlock>>>(view(), slab_partials_.get());
-    slab_finish_kernel<Real><<<1, 256>>>(slab_partials_.get(), g, slab_bodies_.get(), nslabs_,
-                                         static_cast<double>(dt_), kick, slab_velocity_.get());
+    if (!hooks_) {
+      slab_finish_kernel<Real><<<1, 256>>>(slab_partials_.get(), g, slab_bodies_.get(), nslabs_,
+                                           static_cast<double>(dt_), kick, slab_velocity_.get());
+      return;
+    }
+    slab_sums_.set_size(static_cast<size_t>(nslabs_));
+    slab_sums_kernel<<<1, 256>>>(slab_partials_.get(), g, nslabs_, slab_sums_.get());
+    std::vector<double> sums;
+    slab_sums_.download(sums);
+    hooks_->sum(sums.data(), nslabs_);
+    slab_sums_.upload(sums);
+    slab_apply_kernel<Real><<<1, kMaxRigidSlabs>>>(slab_sums_.get(), slab_bodies_.get(), nslabs_,
+                                                   static_cast<double>(dt_), kick,
+                                                   slab_velocity_.get());
   }
 
   void advance(std::uint64_t steps) override {
-    const int g = blocks_for(n_);
     for (std::uint64_t k = 0; k < steps; ++k) {
       mark(0);
       if (nslabs_ > 0)
         slab_half_kick_kernel<Real><<<1, kMaxRigidSlabs>>>(
             slab_bodies_.get(), nslabs_, static_cast<double>(dt_), slab_half_velocity_.get());
-      kick_drift_kernel<Real, T::enabled><<<g, kBlock>>>(view());
+      kick_drift_kernel<Real, T::enabled><<<blocks_for(n_), kBlock>>>(view());
       ++step_;
-      compute_forces();
+      compute_forces();  // a decomposed run's particle count changes here
       if (nslabs_ > 0) slab_forces(true);
       mark(4);
-      kick_kernel<<<g, kBlock>>>(view());
+      kick_kernel<<<blocks_for(n_), kBlock>>>(view());
       if (!host_->injections.empty()) inject();
       mark(5);
       if (profile_) accumulate();
@@ -390,6 +607,12 @@ class CudaEngine final : public Engine<Real> {
         check(cudaMemsetAsync(injection_best_.get(), 0xFF, sizeof(std::uint64_t)), "pick reset");
         auto* best = reinterpret_cast<unsigned long long*>(injection_best_.get());
         injection_key_kernel<<<g, kBlock>>>(v, plan.view, pick, best);
+        if (hooks_) {  // the smallest key over the ranks
+          std::vector<std::uint64_t> b;
+          injection_best_.download(b);
+          b[0] = hooks_->min(b[0]);
+          injection_best_.upload(b);
+        }
         injection_apply_kernel<<<g, kBlock>>>(
             v, plan.view, pick, best,
             reinterpret_cast<unsigned long long*>(injection_counts_.get()));
@@ -408,6 +631,14 @@ class CudaEngine final : public Engine<Real> {
       out[k].missed = c[2 * k + 1];
     }
     return out;
+  }
+
+  void neighbour_counts(std::vector<int>& counts) override {
+    DeviceBuffer<int> d;
+    d.resize(static_cast<size_t>(n_));
+    if (n_ > 0) neighbour_count_kernel<<<blocks_for(n_), kBlock>>>(view(), d.get());
+    check(cudaGetLastError(), "neighbour count kernel");
+    d.download(counts);
   }
 
   VirialSums virial(const VirialRegion<Real>& region) override {
@@ -463,6 +694,7 @@ class CudaEngine final : public Engine<Real> {
     v.slabs.velocity = slab_velocity_.get();
     v.type = type_.get();
     v.id = id_.get();
+    v.origin = origin_.get();
     v.cell_start = cell_start_.get();
     v.table = table_.get();
     v.body_force = body_force_.get();
@@ -475,11 +707,13 @@ class CudaEngine final : public Engine<Real> {
   // Stable sort of the storage by cell, then density (and the wall model's phi and corrector)
   // and forces for step_.
   void compute_forces() {
+    if (hooks_) hooks_->exchange(*this);
     const int g = blocks_for(n_);
     mark(1);
     sort_by_cell();
     mark(2);
     local_sums();
+    if (hooks_) hooks_->sync_sums(*this);
     if constexpr (W::enabled) {
       // The re-sort decision needs the count on the host: one small synchronising copy per step,
       // paid only by scenes with the wall model.
@@ -487,10 +721,12 @@ class CudaEngine final : public Engine<Real> {
       correction_kernel<Real, T::enabled><<<g, kBlock>>>(view(), count_.get());
       check(cudaMemcpy(count_host_, count_.get(), sizeof(unsigned int), cudaMemcpyDeviceToHost),
             "correction count");
-      if (*count_host_ > 0) {
-        corrected_ += *count_host_;
+      corrected_ += *count_host_;
+      if (hooks_ ? hooks_->any(*count_host_ > 0) : *count_host_ > 0) {
+        if (hooks_) hooks_->refresh_ghosts(*this);
         sort_by_cell();
         local_sums();
+        if (hooks_) hooks_->sync_sums(*this);
       }
     }
     mark(3);
@@ -510,6 +746,10 @@ class CudaEngine final : public Engine<Real> {
 
   void sort_by_cell() {
     const int g = blocks_for(n_);
+    if (host_->grid.count() != ncells_) {  // a decomposed run re-balanced: a new cell grid
+      ncells_ = host_->grid.count();
+      cell_start_.resize(static_cast<size_t>(ncells_) + 1);
+    }
     cell_index_kernel<<<g, kBlock>>>(view(), cell_.get(), index_.get());
     size_t temp = sort_temp_.size();
     int bits = 1;
@@ -530,6 +770,168 @@ class CudaEngine final : public Engine<Real> {
     origin_.swap(scratch_int_);
     gather_kernel<<<g, kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), n_);
     id_.swap(scratch_id_);
+  }
+
+ public:
+  // ---- DomainStore (sim/domain/exchange.h): stable selections (CUB) and pack/unpack kernels,
+  // so the storage never leaves the device; only the packed records cross to the host for MPI.
+  int owned_count() const override { return n_ - ghost_count_; }
+
+  void drop_ghosts_take_leavers(const LocalRegion<Real>& region,
+                                std::vector<MigrantRecord<Real>>& leavers) override {
+    const int g = blocks_for(n_);
+    flag_a_.set_size(static_cast<size_t>(n_));
+    flag_b_.set_size(static_cast<size_t>(n_));
+    migrate_flag_kernel<<<g, kBlock>>>(view(), region, flag_a_.get(), flag_b_.get());
+    const int leaving = select(flag_b_, index_);
+    if (leaving > 0) {
+      migrants_.set_size(static_cast<size_t>(leaving));
+      pack_migrants_kernel<<<blocks_for(leaving), kBlock>>>(view(), index_.get(), leaving,
+                                                            migrants_.get());
+      std::vector<MigrantRecord<Real>> out;
+      migrants_.download(out);
+      leavers.insert(leavers.end(), out.begin(), out.end());
+    }
+    const int kept = select(flag_a_, perm_);
+    // Compact: the kept particles, in order, to the front (velocities, v~, positions, type, id;
+    // forces and sums are recomputed before they are read).
+    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_}) {
+      if (a->size() == 0) continue;
+      gather_kernel<<<blocks_for(kept), kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), kept);
+      a->swap(scratch_real_);
+    }
+    gather_kernel<<<blocks_for(kept), kBlock>>>(type_.get(), scratch_int_.get(), perm_.get(), kept);
+    type_.swap(scratch_int_);
+    gather_kernel<<<blocks_for(kept), kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), kept);
+    id_.swap(scratch_id_);
+    ghost_count_ = 0;
+    resize_particles(kept);
+    iota_kernel<<<blocks_for(kept), kBlock>>>(origin_.get(), kept);
+  }
+
+  void add_owned(const std::vector<MigrantRecord<Real>>& in) override {
+    if (in.empty()) return;
+    const int base = n_, m = static_cast<int>(in.size());
+    resize_particles(base + m);
+    migrants_.upload(in);
+    unpack_migrants_kernel<<<blocks_for(m), kBlock>>>(view(), migrants_.get(), m, base,
+                                                      origin_.get());
+  }
+
+  void pack_ghosts(const std::vector<HaloBox<Real>>& boxes, std::vector<GhostRecord<Real>>& out,
+                   std::vector<int>& counts) override {
+    counts.assign(boxes.size(), 0);
+    send_boxes_.upload(boxes);
+    int total = 0;
+    flag_a_.set_size(static_cast<size_t>(n_));
+    for (size_t b = 0; b < boxes.size(); ++b) {
+      ghost_flag_kernel<<<blocks_for(n_), kBlock>>>(view(), boxes[b], flag_a_.get());
+      const int m = select(flag_a_, index_);
+      counts[b] = m;
+      if (m == 0) continue;
+      ghosts_out_.set_size(static_cast<size_t>(total + m));
+      send_slots_.set_size(static_cast<size_t>(total + m));
+      send_box_.set_size(static_cast<size_t>(total + m));
+      pack_ghosts_kernel<<<blocks_for(m), kBlock>>>(
+          view(), index_.get(), m, boxes[b], static_cast<int>(b), ghosts_out_.get() + total,
+          send_slots_.get() + total, send_box_.get() + total);
+      total += m;
+    }
+    send_count_ = total;
+    ghosts_out_.set_size(static_cast<size_t>(total));
+    std::vector<GhostRecord<Real>> h;
+    ghosts_out_.download(h);
+    out.insert(out.end(), h.begin(), h.end());
+  }
+
+  void add_ghosts(const std::vector<GhostRecord<Real>>& in) override {
+    const int base = n_, m = static_cast<int>(in.size());
+    ghost_count_ = m;
+    if (m == 0) return;
+    resize_particles(base + m);
+    ghosts_in_.upload(in);
+    unpack_ghosts_kernel<<<blocks_for(m), kBlock>>>(view(), ghosts_in_.get(), m, base,
+                                                    origin_.get());
+  }
+
+  int sums_per_particle() const override { return W::enabled ? 2 : 1; }
+
+  void pack_sums(std::vector<Real>& out) override {
+    map_slots();
+    sums_out_.set_size(static_cast<size_t>(send_count_ * sums_per_particle()));
+    pack_sums_kernel<<<blocks_for(send_count_), kBlock>>>(
+        view(), slot_index_.get(), send_slots_.get(), send_count_, sums_out_.get());
+    std::vector<Real> h;
+    sums_out_.download(h);
+    out.insert(out.end(), h.begin(), h.end());
+  }
+
+  void set_ghost_sums(const std::vector<Real>& in) override {
+    if (in.empty()) return;
+    sums_in_.upload(in);
+    set_ghost_sums_kernel<<<blocks_for(n_), kBlock>>>(view(), sums_in_.get());
+  }
+
+  void pack_refresh(std::vector<GhostRecord<Real>>& out) override {
+    map_slots();
+    ghosts_out_.set_size(static_cast<size_t>(send_count_));
+    pack_refresh_kernel<<<blocks_for(send_count_), kBlock>>>(
+        view(), slot_index_.get(), send_slots_.get(), send_box_.get(), send_boxes_.get(),
+        send_count_, ghosts_out_.get());
+    std::vector<GhostRecord<Real>> h;
+    ghosts_out_.download(h);
+    out.insert(out.end(), h.begin(), h.end());
+  }
+
+  void set_ghost_refresh(const std::vector<GhostRecord<Real>>& in) override {
+    if (in.empty()) return;
+    ghosts_in_.upload(in);
+    set_ghost_refresh_kernel<<<blocks_for(n_), kBlock>>>(view(), ghosts_in_.get());
+  }
+
+ private:
+  // Indices i with flag[i] = 1, in order (CUB's stable selection), into `out`; returns how many.
+  int select(DeviceBuffer<unsigned char>& flag, DeviceBuffer<int>& out) {
+    out.set_size(static_cast<size_t>(n_ > 0 ? n_ : 1));
+    selected_.set_size(1);
+    iota_.set_size(static_cast<size_t>(n_ > 0 ? n_ : 1));
+    iota_kernel<<<blocks_for(n_), kBlock>>>(iota_.get(), n_);
+    size_t bytes = 0;
+    check(cub::DeviceSelect::Flagged(nullptr, bytes, iota_.get(), flag.get(), out.get(),
+                                     selected_.get(), n_),
+          "select sizing");
+    select_temp_.set_size(bytes > 0 ? bytes : 1);
+    check(cub::DeviceSelect::Flagged(select_temp_.get(), bytes, iota_.get(), flag.get(), out.get(),
+                                     selected_.get(), n_),
+          "select");
+    std::vector<int> count;
+    selected_.download(count);
+    return count[0];
+  }
+
+  void map_slots() {
+    slot_index_.set_size(static_cast<size_t>(owned_count() > 0 ? owned_count() : 1));
+    slot_index_kernel<<<blocks_for(n_), kBlock>>>(origin_.get(), n_, slot_index_.get());
+  }
+
+  // Every per-particle buffer to n entries (contents kept), and the sort's scratch to match.
+  void resize_particles(int n) {
+    const size_t s = static_cast<size_t>(n);
+    for (DeviceBuffer<Real>* a :
+         {&x_, &y_, &z_, &vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &rho_, &scratch_real_})
+      a->set_size(s);
+    if constexpr (T::enabled)
+      for (DeviceBuffer<Real>* a : {&vex_, &vey_, &vez_}) a->set_size(s);
+    if constexpr (W::enabled) bvf_.set_size(s);
+    for (DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_}) a->set_size(s);
+    for (DeviceBuffer<std::int64_t>* a : {&id_, &scratch_id_}) a->set_size(s);
+    for (DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_}) a->set_size(s);
+    n_ = n;
+    size_t temp = 0;
+    check(cub::DeviceRadixSort::SortPairs(nullptr, temp, cell_.get(), cell_sorted_.get(),
+                                          index_.get(), perm_.get(), n_),
+          "radix sort sizing");
+    if (temp > sort_temp_.size()) sort_temp_.set_size(temp);
   }
 
  public:
@@ -601,6 +1003,18 @@ class CudaEngine final : public Engine<Real> {
   DeviceBuffer<double> slab_partials_;
   DeviceBuffer<unsigned int> count_;
   DeviceBuffer<std::uint64_t> injection_best_, injection_counts_;  // injection only
+  // A decomposed run's (sim/domain) hooks and exchange buffers; null and empty otherwise.
+  StepHooks<Real>* hooks_ = nullptr;
+  int ghost_count_ = 0, send_count_ = 0;
+  DeviceBuffer<unsigned char> flag_a_, flag_b_, select_temp_;
+  DeviceBuffer<int> selected_, slot_index_, send_box_;
+  DeviceBuffer<std::int32_t> iota_;
+  DeviceBuffer<std::int32_t> send_slots_;
+  DeviceBuffer<MigrantRecord<Real>> migrants_;
+  DeviceBuffer<GhostRecord<Real>> ghosts_out_, ghosts_in_;
+  DeviceBuffer<HaloBox<Real>> send_boxes_;
+  DeviceBuffer<Real> sums_out_, sums_in_;
+  DeviceBuffer<double> slab_sums_;
   unsigned int* count_host_ = nullptr;
   std::uint64_t corrected_ = 0;
   bool profile_ = false;

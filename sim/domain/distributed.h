@@ -1,0 +1,16 @@
+#pragma once
+// A Simulation over several ranks (MPI), each owning the particles in its region of the box
+// (sim/domain/decomposition.h), exchanging ghosts every step (sim/domain/exchange.h) and
+// re-balancing by RCB on the measured cost. make_simulation() builds one when its options carry a
+// communicator of more than one rank; every call on it is collective.
+#include <memory>
+
+#include "sim/simulation.h"
+
+namespace mesorock::sim {
+
+std::unique_ptr<Simulation> make_distributed_simulation(const Model& model, const BoxSpec& box,
+                                                        const ParticleSet& particles, double dt,
+                                                        const SimulationOptions& options);
+
+}  // namespace mesorock::sim

@@ -1,0 +1,25 @@
+#pragma once
+// What every Simulation implementation shares (sim/simulation.cpp): input validation, the host
+// state built from the model and the particles, and the engine of the chosen backend. The
+// single-rank Simulation and the decomposed one (sim/domain/distributed.cpp) both start here.
+#include <memory>
+
+#include "sim/simulation.h"
+#include "sim/state.h"
+
+namespace mesorock::sim {
+
+// Throws ConfigError naming the first problem with the inputs.
+void validate_inputs(const Model& model, const BoxSpec& box, const ParticleSet& particles,
+                     double dt);
+
+// Fills the host state (pair table, effects, box, cell grid, particles in the run's precision).
+template <class Real>
+void init_host_state(HostState<Real>& state, const Model& model, const BoxSpec& box,
+                     const ParticleSet& particles, double dt, const SimulationOptions& options);
+
+// The engine of options.backend for the model's compiled term set.
+template <class Real>
+std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& options);
+
+}  // namespace mesorock::sim
