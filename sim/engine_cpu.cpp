@@ -302,10 +302,11 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
       r.id = s.id[i];
       leavers.push_back(r);
     }
-    s.for_each_particle_array([&](auto& a) {
-      for (size_t k = 0; k < keep_.size(); ++k) a[k] = a[static_cast<size_t>(keep_[k])];
-      a.resize(keep_.size());
-    });
+    if (keep_.size() != static_cast<size_t>(n))  // else nothing left and there were no ghosts
+      s.for_each_particle_array([&](auto& a) {
+        for (size_t k = 0; k < keep_.size(); ++k) a[k] = a[static_cast<size_t>(keep_[k])];
+        a.resize(keep_.size());
+      });
     for (size_t k = 0; k < keep_.size(); ++k) s.origin[k] = static_cast<std::int32_t>(k);
     ghost_count_ = 0;
   }

@@ -356,9 +356,17 @@ CaseResult run_no_penetration_case(const ValidateOptions& o) {
   bare.wall_model.enabled = false;
   const std::uint64_t bare_steps = full ? 4000 : 3000;
   auto reference = sim::make_simulation(bare, s.box, s.particles, 0.01, o.sim);
-  reference->run(bare_steps);
-  const Census without = census(reference->particles());
-  progress(o, "  without the wall model, after " + std::to_string(bare_steps) + " steps: " +
+  // The deepest over checks every 250 steps: a leak is a passing event (a particle that got in
+  // may come out again), and one look at the end can miss it (seen on the GPU at small size:
+  // 0.24 rc at step 3000 after deeper excursions).
+  Census without;
+  for (std::uint64_t done = 0; done < bare_steps; done += 250) {
+    reference->run(250);
+    const Census c = census(reference->particles());
+    without.deepest = std::max(without.deepest, c.deepest);
+    without.beyond_skin = std::max(without.beyond_skin, c.beyond_skin);
+  }
+  progress(o, "  without the wall model, over " + std::to_string(bare_steps) + " steps: up to " +
                   std::to_string(without.beyond_skin) + " fluid particles deeper than " +
                   fmt(skin, 2) + " rc, deepest " + fmt(without.deepest, 3) + " rc");
   r.quantities.push_back(
@@ -367,8 +375,8 @@ CaseResult run_no_penetration_case(const ValidateOptions& o) {
              static_cast<double>(worst_beyond), 0, 0, 0,
              "issue: zero (Li et al. 2018 predictor-corrector); skin = one wall-particle spacing",
              Comparison::AtMost));
-  r.quantities.push_back(judged("deepest fluid particle without the wall model after " +
-                                    std::to_string(bare_steps) + " steps (rc)",
+  r.quantities.push_back(judged("deepest fluid particle without the wall model over " +
+                                    std::to_string(bare_steps) + " steps (rc, checks every 250)",
                                 without.deepest, 0, skin, 0,
                                 "must get past the skin: shows the case can fail",
                                 Comparison::AtLeast));

@@ -783,8 +783,10 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     flag_a_.set_size(static_cast<size_t>(n_));
     flag_b_.set_size(static_cast<size_t>(n_));
     migrate_flag_kernel<<<g, kBlock>>>(view(), region, flag_a_.get(), flag_b_.get());
-    const int leaving = select(flag_b_, index_);
+    const int kept = select(flag_a_, perm_);
+    const int leaving = n_ - ghost_count_ - kept;
     if (leaving > 0) {
+      select(flag_b_, index_);
       migrants_.set_size(static_cast<size_t>(leaving));
       pack_migrants_kernel<<<blocks_for(leaving), kBlock>>>(view(), index_.get(), leaving,
                                                             migrants_.get());
@@ -792,7 +794,11 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
       migrants_.download(out);
       leavers.insert(leavers.end(), out.begin(), out.end());
     }
-    const int kept = select(flag_a_, perm_);
+    ghost_count_ = 0;
+    if (kept == n_) {  // nothing left and there were no ghosts: no compaction
+      iota_kernel<<<g, kBlock>>>(origin_.get(), n_);
+      return;
+    }
     // Compact: the kept particles, in order, to the front (velocities, v~, positions, type, id;
     // forces and sums are recomputed before they are read).
     for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_}) {
@@ -804,7 +810,6 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     type_.swap(scratch_int_);
     gather_kernel<<<blocks_for(kept), kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), kept);
     id_.swap(scratch_id_);
-    ghost_count_ = 0;
     resize_particles(kept);
     iota_kernel<<<blocks_for(kept), kBlock>>>(origin_.get(), kept);
   }
@@ -821,6 +826,8 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   void pack_ghosts(const std::vector<HaloBox<Real>>& boxes, std::vector<GhostRecord<Real>>& out,
                    std::vector<int>& counts) override {
     counts.assign(boxes.size(), 0);
+    send_count_ = 0;
+    if (boxes.empty()) return;
     send_boxes_.upload(boxes);
     int total = 0;
     flag_a_.set_size(static_cast<size_t>(n_));
@@ -857,6 +864,7 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   int sums_per_particle() const override { return W::enabled ? 2 : 1; }
 
   void pack_sums(std::vector<Real>& out) override {
+    if (send_count_ == 0) return;
     map_slots();
     sums_out_.set_size(static_cast<size_t>(send_count_ * sums_per_particle()));
     pack_sums_kernel<<<blocks_for(send_count_), kBlock>>>(
@@ -873,6 +881,7 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   }
 
   void pack_refresh(std::vector<GhostRecord<Real>>& out) override {
+    if (send_count_ == 0) return;
     map_slots();
     ghosts_out_.set_size(static_cast<size_t>(send_count_));
     pack_refresh_kernel<<<blocks_for(send_count_), kBlock>>>(
