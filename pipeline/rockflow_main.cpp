@@ -84,6 +84,14 @@ int main(int argc, char** argv) {
     bench->add_flag("--compare-cpu", compare_cpu, "also run the CPU backend on the same case");
     bench->add_flag("--json", bench_json, "print JSON");
     bool profile = false, decompose = false;
+    int reorder_every = 1;
+    double skin = 0;
+    bench
+        ->add_option("--reorder-every", reorder_every,
+                     "steps between cell sorts (needs --skin; default 1: every step)")
+        ->check(CLI::Range(1, 1000));
+    bench->add_option("--skin", skin, "cell-list skin in rc for --reorder-every")
+        ->check(CLI::Range(0.0, 1.0));
     bench->add_flag("--decompose", decompose,
                     "run the decomposed (MPI) solver even on one rank, to measure its cost");
     bench->add_flag("--profile", profile, "CUDA: also time each pass (kick, sort, density, force)");
@@ -146,6 +154,8 @@ int main(int argc, char** argv) {
       bo.sim = so;
       bo.sim.profile = profile;
       bo.sim.cells_per_cutoff = cells_per_rc;
+      bo.sim.reorder_every = reorder_every;
+      bo.sim.skin = skin;
       if (decompose) {
         bo.sim.decomposition.force = true;
         if (!bo.sim.comm) bo.sim.comm = ms::make_self_communicator();

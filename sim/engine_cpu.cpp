@@ -207,7 +207,7 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
   void compute_forces() {
     ThreadScope scope(threads_);
     if (hooks_) hooks_->exchange(*this);
-    sorter_.sort(*s_);
+    if (sort_due()) sort();
     using C = typename Terms::conservative;
     using W = typename Terms::wall_model;
     local_sums();
@@ -218,7 +218,7 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
         // Corrected particles moved: sort and sum again so the cell list and rho stay exact
         // (and, decomposed, their ghosts follow them first).
         if (hooks_) hooks_->refresh_ghosts(*this);
-        sorter_.sort(*s_);
+        sort();
         local_sums();
         if (hooks_) hooks_->sync_sums(*this);
       }
@@ -229,6 +229,32 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     for (int k = 0; k < n; ++k)
       force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force, W>(
           v, k, NeighbourStash{});
+  }
+
+  // Every step, or with a reorder interval (HostState::reorder_every) when the interval is up or a
+  // particle has moved more than skin / 2 since the last sort.
+  bool sort_due() {
+    const int every = s_->reorder_every;
+    if (every <= 1 || ++steps_since_sort_ >= every || x0_.size() != s_->x.size()) return true;
+    const StepView<Real> v = s_->view();
+    const Real half = Real(0.5) * s_->skin, limit2 = half * half;
+    const int n = v.n;
+    int moved = 0;
+#pragma omp parallel for schedule(static) reduction(max : moved)
+    for (int i = 0; i < n; ++i)
+      moved =
+          std::max(moved, displacement2(v, x0_.data(), y0_.data(), z0_.data(), i) > limit2 ? 1 : 0);
+    return moved != 0;
+  }
+
+  void sort() {
+    sorter_.sort(*s_);
+    if (s_->reorder_every > 1) {
+      x0_ = s_->x;
+      y0_ = s_->y;
+      z0_ = s_->z;
+      steps_since_sort_ = 0;
+    }
   }
 
   void local_sums() {
@@ -468,6 +494,9 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
   std::vector<Correction> corrections_;
   std::vector<InjectionCounts> counts_;
   StepHooks<Real>* hooks_ = nullptr;  // a decomposed run's (sim/domain); null otherwise
+  // Reorder interval only: the positions at the last sort, and the steps since.
+  std::vector<Real> x0_, y0_, z0_;
+  int steps_since_sort_ = 0;
   int ghost_count_ = 0;
   std::vector<int> keep_, slot_index_, send_shift_;
   std::vector<std::int32_t> send_slots_;

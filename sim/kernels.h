@@ -45,6 +45,10 @@ struct StepView {
   // so a single-rank run never loads origin.
   const std::int32_t* origin = nullptr;
   bool has_ghosts = false;
+  // The cell list may be up to skin / 2 of motion old (a reorder interval above 1): a particle
+  // may have crossed a periodic face since it was filed in its cell, so every separation is taken
+  // as the minimum image instead of through the cell's shift.
+  bool stale_cells = false;
 
   // Cell list: particles are stored sorted by cell; cell c holds [cell_start[c], cell_start[c+1]).
   const int* cell_start = nullptr;
@@ -109,14 +113,25 @@ MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visi
           Real dx = (xi - v.x[j]) - sx;
           Real dy = (yi - v.y[j]) - sy;
           Real dz = (zi - v.z[j]) - sz;
-          if (rx.all) dx = v.box.minimum_image(dx, 0);
-          if (ry.all) dy = v.box.minimum_image(dy, 1);
-          if (rz.all) dz = v.box.minimum_image(dz, 2);
+          if (rx.all || v.stale_cells) dx = v.box.minimum_image(dx, 0);
+          if (ry.all || v.stale_cells) dy = v.box.minimum_image(dy, 1);
+          if (rz.all || v.stale_cells) dz = v.box.minimum_image(dz, 2);
           visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
         }
       }
     }
   }
+}
+
+// Squared displacement of particle i since the positions x0 of the last sort (minimum image: a
+// particle may have crossed a periodic face).
+template <class Real>
+MESO_HD MESO_INLINE Real displacement2(const StepView<Real>& v, const Real* x0, const Real* y0,
+                                       const Real* z0, int i) {
+  const Real dx = v.box.minimum_image(v.x[i] - x0[i], 0);
+  const Real dy = v.box.minimum_image(v.y[i] - y0[i], 1);
+  const Real dz = v.box.minimum_image(v.z[i] - z0[i], 2);
+  return dx * dx + dy * dy + dz * dz;
 }
 
 // Calls visit(j, dx, dy, dz, r2) for every particle j != i within the cutoff rc = 1.

@@ -206,6 +206,17 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
   if (opt.cells_per_cutoff < 1 || opt.cells_per_cutoff > 4)
     throw ConfigError("cells per cutoff must be 1 to 4 (got " +
                       std::to_string(opt.cells_per_cutoff) + ")");
+  if (opt.reorder_every < 1 || opt.reorder_every > 1000)
+    throw ConfigError("reorder interval must be 1 to 1000 steps (got " +
+                      std::to_string(opt.reorder_every) + ")");
+  if (!(opt.skin >= 0 && opt.skin <= 1))
+    throw ConfigError("skin must be in [0, 1] rc (got " + std::to_string(opt.skin) + ")");
+  if (opt.reorder_every > 1 && !(opt.skin > 0))
+    throw ConfigError("a reorder interval above 1 needs a skin > 0 (particles move between sorts)");
+  if (opt.reorder_every > 1 && opt.comm && (opt.comm->size() > 1 || opt.decomposition.force))
+    throw ConfigError("a decomposed run re-sorts every step (its exchange changes the storage)");
+  s.reorder_every = opt.reorder_every;
+  s.skin = static_cast<Real>(opt.skin);
   const int nt = model.ntypes();
   s.ntypes = nt;
   s.table.resize(static_cast<size_t>(nt * nt));
@@ -230,7 +241,7 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
     s.box.length[a] = static_cast<Real>(box.length(a));
     s.box.periodic[a] = box.periodic[a];
   }
-  s.grid = CellGrid<Real>::make(s.box, Real(1), opt.cells_per_cutoff);
+  s.grid = CellGrid<Real>::make(s.box, static_cast<Real>(1 + opt.skin), opt.cells_per_cutoff);
   if (model.wall_model.enabled) {
     const WallModelSpec& w = model.wall_model;
     s.walls.wall_mask = model.wall_mask();

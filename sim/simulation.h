@@ -29,6 +29,13 @@ struct SimulationOptions {
   // speed and the order of force sums (so results at round-off), not the physics. 1 measured
   // fastest on the GPU (docs/benchmarks.md); the CPU is indifferent.
   int cells_per_cutoff = 1;
+  // Reorder interval and skin (a Verlet-style cell list): the storage is re-sorted by cell only
+  // every `reorder_every` steps, over cells of (rc + skin) / cells_per_cutoff, and sooner when a
+  // particle has moved more than skin / 2 since the last sort (checked every step), so no pair
+  // within rc is missed. 1 and 0: sort every step over cells of rc (the default). Changes the
+  // order of force sums (results at round-off), not the physics; speed is in docs/accuracy.md.
+  int reorder_every = 1;
+  double skin = 0;
   // Ranks of a domain decomposition (sim/domain): a communicator of more than one rank makes a
   // decomposed run; null or one rank runs the plain single-rank solver.
   std::shared_ptr<Communicator> comm;

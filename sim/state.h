@@ -26,6 +26,10 @@ struct HostState {
   std::vector<std::int32_t> origin;
   std::vector<int> cell_start;  // cell list over the cell-sorted storage (built by the engine)
   bool has_ghosts = false;      // a decomposed run's storage holds ghosts (origin < 0)
+  // Reorder interval and skin (SimulationOptions): with reorder_every > 1 the cell list may be
+  // stale by up to skin / 2 of motion, and the positions at the last sort are kept to check it.
+  int reorder_every = 1;
+  Real skin = 0;
 
   std::vector<PairParams<Real>> table;  // ntypes x ntypes
   std::vector<Real> body_force;         // ntypes x 3
@@ -81,6 +85,7 @@ struct HostState {
     v.id = id.data();
     v.origin = origin.data();
     v.has_ghosts = has_ghosts;
+    v.stale_cells = reorder_every > 1;
     v.cell_start = cell_start.data();
     v.box = box;
     v.grid = grid;

@@ -53,6 +53,8 @@ BenchResult run_bench(const BenchOptions& o) {
   r.steps = o.steps;
   r.cells_per_rc = o.sim.cells_per_cutoff;
   r.ranks = sim->ranks();
+  r.reorder_every = o.sim.reorder_every;
+  r.skin = o.sim.skin;
   r.decomposed = o.sim.comm && (o.sim.comm->size() > 1 || o.sim.decomposition.force);
   r.threads = o.sim.backend == sim::BackendKind::CPU
                   ? (o.sim.threads > 0 ? o.sim.threads : omp_get_max_threads())
@@ -86,6 +88,8 @@ std::string format_bench_json(const BenchResult& r) {
                       {"setup_seconds", r.setup_seconds},
                       {"gpu_bytes_per_particle", r.device_bytes_per_particle},
                       {"cells_per_rc", r.cells_per_rc},
+                      {"reorder_every", r.reorder_every},
+                      {"skin", r.skin},
                       {"ranks", r.ranks},
                       {"decomposed", r.decomposed}};
   if (!r.profile.empty()) j["profile"] = r.profile;
@@ -98,6 +102,8 @@ std::string format_bench_text(const BenchResult& r) {
     << r.steps << " steps on " << r.backend;
   if (r.threads > 0) s << " (" << r.threads << " threads)";
   if (r.decomposed) s << ", decomposed over " << r.ranks << " rank(s)";
+  if (r.reorder_every > 1)
+    s << ", sorted every " << r.reorder_every << " steps (skin " << r.skin << ")";
   s << ", " << r.precision << " precision, " << r.cells_per_rc << " cells per rc: " << r.seconds
     << " s, " << r.mps << " MPS/s";
   if (r.device_bytes_per_particle > 0)

@@ -21,6 +21,8 @@ struct BenchResult {
   std::uint64_t steps = 0;
   int threads = 0;
   int cells_per_rc = 1;
+  int reorder_every = 1;  // steps between cell sorts (with a skin)
+  double skin = 0;
   int ranks = 1;            // MPI ranks (mpirun), 1 otherwise
   bool decomposed = false;  // the decomposed solver (sim/domain), even on one rank
   double seconds = 0;

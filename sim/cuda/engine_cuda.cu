@@ -417,6 +417,14 @@ __global__ void slab_apply_kernel(const double* sums, RigidSlabBody* bodies, int
   velocity[k] = static_cast<Real>(bodies[k].velocity);
 }
 
+// Reorder interval: flags when any particle has moved beyond limit2 since the last sort.
+template <class Real>
+__global__ void moved_kernel(StepView<Real> v, const Real* x0, const Real* y0, const Real* z0,
+                             Real limit2, int* moved) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n && displacement2(v, x0, y0, z0, i) > limit2) *moved = 1;
+}
+
 template <class Real, class C, class T, class B, class W>
 __global__ void force_kernel(StepView<Real> v) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -710,7 +718,7 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     if (hooks_) hooks_->exchange(*this);
     const int g = blocks_for(n_);
     mark(1);
-    sort_by_cell();
+    if (sort_due()) sort();
     mark(2);
     local_sums();
     if (hooks_) hooks_->sync_sums(*this);
@@ -724,13 +732,42 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
       corrected_ += *count_host_;
       if (hooks_ ? hooks_->any(*count_host_ > 0) : *count_host_ > 0) {
         if (hooks_) hooks_->refresh_ghosts(*this);
-        sort_by_cell();
+        sort();
         local_sums();
         if (hooks_) hooks_->sync_sums(*this);
       }
     }
     mark(3);
     force_kernel<Real, C, T, B, W><<<g, kBlock, kStashBytes>>>(view());
+  }
+
+  // Every step, or with a reorder interval when it is up or a particle has moved more than
+  // skin / 2 since the last sort (one flag read back per step: only runs with an interval pay).
+  bool sort_due() {
+    const int every = host_->reorder_every;
+    if (every <= 1 || ++steps_since_sort_ >= every || x0_.size() != static_cast<size_t>(n_))
+      return true;
+    const Real half = Real(0.5) * host_->skin;
+    moved_.set_size(1);
+    check(cudaMemsetAsync(moved_.get(), 0, sizeof(int)), "moved reset");
+    moved_kernel<<<blocks_for(n_), kBlock>>>(view(), x0_.get(), y0_.get(), z0_.get(), half * half,
+                                             moved_.get());
+    std::vector<int> moved;
+    moved_.download(moved);
+    return moved[0] != 0;
+  }
+
+  void sort() {
+    sort_by_cell();
+    if (host_->reorder_every > 1) {
+      for (auto [from, to] : {std::pair{&x_, &x0_}, std::pair{&y_, &y0_}, std::pair{&z_, &z0_}}) {
+        to->set_size(static_cast<size_t>(n_));
+        check(cudaMemcpyAsync(to->get(), from->get(), static_cast<size_t>(n_) * sizeof(Real),
+                              cudaMemcpyDeviceToDevice),
+              "sort positions");
+      }
+      steps_since_sort_ = 0;
+    }
   }
 
   void local_sums() {
@@ -965,8 +1002,8 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   std::size_t device_bytes() const override {
     std::size_t b = 0;
     for (const DeviceBuffer<Real>* a :
-         {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_, &fx_, &fy_, &fz_, &rho_,
-          &scratch_real_, &body_force_, &bvf_, &kappa_})
+         {&x_,  &y_,  &z_,   &vx_,           &vy_,         &vz_,  &vex_,   &vey_, &vez_, &fx_,
+          &fy_, &fz_, &rho_, &scratch_real_, &body_force_, &bvf_, &kappa_, &x0_,  &y0_,  &z0_})
       b += a->size() * sizeof(Real);
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_})
       b += a->size() * sizeof(std::int32_t);
@@ -1024,6 +1061,10 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   DeviceBuffer<HaloBox<Real>> send_boxes_;
   DeviceBuffer<Real> sums_out_, sums_in_;
   DeviceBuffer<double> slab_sums_;
+  // Reorder interval only: the positions at the last sort, the steps since, the moved flag.
+  DeviceBuffer<Real> x0_, y0_, z0_;
+  DeviceBuffer<int> moved_;
+  int steps_since_sort_ = 0;
   unsigned int* count_host_ = nullptr;
   std::uint64_t corrected_ = 0;
   bool profile_ = false;
