@@ -92,6 +92,7 @@ class CpuEngine final : public Engine<Real> {
       const StepView<Real> w = s_->view();
 #pragma omp parallel for schedule(static)
       for (int i = 0; i < n; ++i) kick(w, i);
+      if (this->watchdog_.enabled) watchdog_scan(w, this->watchdog_);  // throws on a blow-up
     }
   }
 

@@ -164,6 +164,7 @@ class SimulationImpl final : public Simulation {
     if (opt.cells_per_cutoff < 1 || opt.cells_per_cutoff > 4)
       throw ConfigError("cells per cutoff must be 1 to 4 (got " +
                         std::to_string(opt.cells_per_cutoff) + ")");
+    validate_watchdog_options(opt.watchdog);
     HostState<Real>& s = state_;
     const int nt = model.ntypes();
     s.ntypes = nt;
@@ -283,6 +284,7 @@ class SimulationImpl final : public Simulation {
 #endif
     }
     engine_->initialize(s);
+    engine_->set_watchdog(opt.watchdog);
     // The initial forces may live only on the device: the next read downloads them.
     host_current_ = false;
   }

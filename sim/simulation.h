@@ -9,6 +9,7 @@
 
 #include "sim/model.h"
 #include "sim/observables.h"
+#include "sim/watchdog.h"
 
 namespace mesorock::sim {
 
@@ -26,6 +27,9 @@ struct SimulationOptions {
   // speed and the order of force sums (so results at round-off), not the physics. 1 measured
   // fastest on the GPU (docs/benchmarks.md); the CPU is indifferent.
   int cells_per_cutoff = 1;
+  // Stops a run that blows up (NaN, infinity, runaway velocity) with a NumericalError naming the
+  // step, particle and quantity (sim/watchdog.h). On by default.
+  WatchdogOptions watchdog;
 };
 
 // Stress tensor parts in Voigt order xx yy zz xy xz yz; sigma = (kinetic + virial) / V, with the
