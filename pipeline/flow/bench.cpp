@@ -23,7 +23,7 @@ using Clock = std::chrono::steady_clock;
 // in alternating rounds (off-on, on-off, ...) so that a drift of the machine's speed hits both
 // alike. Every round ends with the same synchronising read (the temperature) in both.
 void time_watchdog_rounds(const BenchOptions& o, const BuiltSystem& s, BenchResult& r) {
-  constexpr int kRounds = 4;
+  constexpr int kRounds = 10;
   sim::SimulationOptions opt[2] = {o.sim, o.sim};
   opt[0].profile = opt[1].profile = false;
   opt[0].watchdog.enabled = false;
