@@ -45,6 +45,10 @@ int main(int argc, char** argv) {
 
     std::string backend = "cpu";
     int threads = 0;
+    std::string watchdog = "on";  // sim/watchdog.h
+    double runaway = ms::WatchdogOptions{}.runaway_displacement;
+    const auto on_off = CLI::IsMember({"on", "off"});
+    const char* const watchdog_help = "stop a blow-up (NaN, runaway velocity) with a diagnostic";
 
     auto* run = app.add_subcommand("run", "run a scene file");
     std::string scene_path, out_dir = "out";
@@ -53,6 +57,11 @@ int main(int argc, char** argv) {
     run->add_option("--backend", backend, "cpu or cuda")->capture_default_str();
     run->add_option("--threads", threads, "CPU threads (0: all cores)")
         ->check(CLI::NonNegativeNumber);
+    run->add_option("--watchdog", watchdog, watchdog_help)->check(on_off)->capture_default_str();
+    run->add_option("--runaway-displacement", runaway,
+                    "watchdog: a particle moving more rc than this in one step is a runaway")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
 
     auto* val = app.add_subcommand("validate", "run a built-in physics validation case");
     std::string case_name, size = "small", kernel = "warren";
@@ -66,6 +75,7 @@ int main(int argc, char** argv) {
     val->add_option("--threads", threads, "CPU threads (0: all cores)")
         ->check(CLI::NonNegativeNumber);
     val->add_flag("--json", json, "print one JSON object");
+    val->add_option("--watchdog", watchdog, watchdog_help)->check(on_off)->capture_default_str();
 
     auto* bench = app.add_subcommand("bench", "measure million particle-steps per second");
     mp::BenchOptions bo;
@@ -83,6 +93,11 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"single", "double"}));
     bench->add_flag("--compare-cpu", compare_cpu, "also run the CPU backend on the same case");
     bench->add_flag("--json", bench_json, "print JSON");
+    bench
+        ->add_option("--watchdog", watchdog,
+                     "on, off, or compare: time both in alternating rounds and print its cost")
+        ->check(CLI::IsMember({"on", "off", "compare"}))
+        ->capture_default_str();
     bool profile = false, decompose = false;
     int reorder_every = 1;
     double skin = 0;
@@ -113,6 +128,8 @@ int main(int argc, char** argv) {
     so.comm = mpi.world();
     // Under mpirun, rank 0 alone prints results.
     const bool root = !so.comm || so.comm->rank() == 0;
+    so.watchdog.enabled = watchdog != "off";
+    so.watchdog.runaway_displacement = runaway;
 
     if (*run) {
       require_backend(so.backend);
@@ -160,6 +177,7 @@ int main(int argc, char** argv) {
         bo.sim.decomposition.force = true;
         if (!bo.sim.comm) bo.sim.comm = ms::make_self_communicator();
       }
+      bo.compare_watchdog = watchdog == "compare";
       const mp::BenchResult r = mp::run_bench(bo);
       mp::BenchResult cpu;
       if (compare_cpu) {

@@ -90,6 +90,7 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
 #pragma omp parallel for schedule(static)
       for (int i = 0; i < m; ++i) kick(w, i);
       if (!s_->injections.empty()) inject();
+      if (this->watchdog_.enabled) watchdog_scan(w, this->watchdog_);  // throws on a blow-up
     }
   }
 

@@ -206,6 +206,7 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
   if (opt.cells_per_cutoff < 1 || opt.cells_per_cutoff > 4)
     throw ConfigError("cells per cutoff must be 1 to 4 (got " +
                       std::to_string(opt.cells_per_cutoff) + ")");
+  validate_watchdog_options(opt.watchdog);
   if (opt.reorder_every < 1 || opt.reorder_every > 1000)
     throw ConfigError("reorder interval must be 1 to 1000 steps (got " +
                       std::to_string(opt.reorder_every) + ")");
@@ -375,6 +376,7 @@ class SimulationImpl final : public Simulation {
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
     engine_ = make_engine<Real>(model, opt);
     engine_->initialize(s);
+    engine_->set_watchdog(opt.watchdog);
     // The initial forces may live only on the device: the next read downloads them.
     host_current_ = false;
   }

@@ -10,6 +10,7 @@
 #include "sim/domain/decomposition.h"
 #include "sim/model.h"
 #include "sim/observables.h"
+#include "sim/watchdog.h"
 
 namespace mesorock::sim {
 
@@ -40,6 +41,9 @@ struct SimulationOptions {
   // decomposed run; null or one rank runs the plain single-rank solver.
   std::shared_ptr<Communicator> comm;
   DecompositionOptions decomposition;
+  // Stops a run that blows up (NaN, infinity, runaway velocity) with a NumericalError naming the
+  // step, particle and quantity (sim/watchdog.h). On by default.
+  WatchdogOptions watchdog;
 };
 
 // Stress tensor parts in Voigt order xx yy zz xy xz yz; sigma = (kinetic + virial) / V, with the

@@ -12,6 +12,7 @@
 #include "sim/kernels.h"
 #include "sim/model.h"
 #include "sim/pair_terms.h"
+#include "sim/watchdog.h"
 
 namespace mesorock::sim {
 
@@ -148,6 +149,11 @@ class Engine {
   virtual std::size_t device_bytes() const { return 0; }
   // Per-pass times when profiling was asked for ("" otherwise).
   virtual std::string profile_report() const { return ""; }
+  // The numerical watchdog (sim/watchdog.h), checked after every step while enabled.
+  virtual void set_watchdog(const WatchdogOptions& o) { watchdog_ = o; }
+
+ protected:
+  WatchdogOptions watchdog_;
 };
 
 }  // namespace mesorock::sim

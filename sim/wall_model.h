@@ -81,7 +81,8 @@ struct WallModelView {
   // Dissipation factor gamma_eff / gamma_FW for a fluid particle with BVF phi.
   MESO_HD MESO_INLINE Real dissipation_factor(Real phi) const {
     Real u = phi / phi_max * Real(entries - 1);
-    if (u <= Real(0)) return Real(1) + slip_factor * (kappa[0] - Real(1));
+    // !(u > 0) also catches a NaN phi, which would otherwise index the table out of range.
+    if (!(u > Real(0))) return Real(1) + slip_factor * (kappa[0] - Real(1));
     if (u >= Real(entries - 1)) return Real(1) + slip_factor * (kappa[entries - 1] - Real(1));
     const int k = static_cast<int>(u);
     const Real t = u - Real(k);

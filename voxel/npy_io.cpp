@@ -97,6 +97,8 @@ NpyHeader parse_header(ByteSource& source, const std::string& what) {
   }
   h.fortran_order = fortran == "True";
   std::string shape = dict_value(dict, "shape", what);
+  if (shape.size() < 2 || shape.front() != '(' || shape.back() != ')')
+    throw IoError(what + ": malformed npy shape '" + shape + "' (expected a tuple)");
   for (const std::string& part : split(shape.substr(1, shape.size() - 2), ',')) {
     const std::string t = trim(part);
     if (t.empty()) continue;

@@ -6,9 +6,31 @@
 
 namespace mesorock {
 
+namespace detail {
+// Messages are one line ("rockflow: error: <message>"), whatever text from a file or a name they
+// quote: control characters (a newline in an npy header or a zip member name, found by the
+// fuzzers) are written as \xNN.
+inline std::string one_line(const std::string& text) {
+  static const char hex[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(text.size());
+  for (const unsigned char c : text) {
+    if (c >= 0x20 && c != 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      out += "\\x";
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    }
+  }
+  return out;
+}
+}  // namespace detail
+
 class Error : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit Error(const std::string& what) : std::runtime_error(detail::one_line(what)) {}
+  explicit Error(const char* what) : Error(std::string(what)) {}
 };
 
 // Bad user input: a scene key, a command-line value, a label map. Exit code 2.

@@ -2,9 +2,11 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -14,8 +16,54 @@
 
 namespace mesorock::pipeline {
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The watchdog's cost: the same system with the watchdog off and on, each warmed up, then timed
+// in alternating rounds (off-on, on-off, ...) so that a drift of the machine's speed hits both
+// alike. Every round ends with the same synchronising read (the temperature) in both.
+void time_watchdog_rounds(const BenchOptions& o, const BuiltSystem& s, BenchResult& r) {
+  constexpr int kRounds = 10;
+  sim::SimulationOptions opt[2] = {o.sim, o.sim};
+  opt[0].profile = opt[1].profile = false;
+  opt[0].watchdog.enabled = false;
+  opt[1].watchdog.enabled = true;
+  std::unique_ptr<sim::Simulation> sims[2];
+  const std::uint64_t warm = std::max<std::uint64_t>(5, o.steps / 10);
+  const std::uint64_t per_round = std::max<std::uint64_t>(1, o.steps / kRounds);
+  for (int k = 0; k < 2; ++k) {
+    sims[k] = sim::make_simulation(s.model, s.box, s.particles, 0.01, opt[k]);
+    sims[k]->run(warm);
+    (void)sims[k]->kinetic_temperature();
+  }
+  double seconds[2] = {0, 0};
+  for (int round = 0; round < kRounds; ++round)
+    for (int q = 0; q < 2; ++q) {
+      const int k = round % 2 == 0 ? q : 1 - q;
+      const auto t0 = Clock::now();
+      sims[k]->run(per_round);
+      const double T = sims[k]->kinetic_temperature();
+      seconds[k] += std::chrono::duration<double>(Clock::now() - t0).count();
+      if (!std::isfinite(T)) throw NumericalError("bench: temperature is not finite after the run");
+    }
+  const double work =
+      static_cast<double>(sims[1]->size()) * static_cast<double>(per_round) * kRounds / 1e6;
+  r.mps_watchdog_off = work / seconds[0];
+  r.mps_watchdog_on = work / seconds[1];
+  r.watchdog_cost_percent = 100.0 * (seconds[1] - seconds[0]) / seconds[0];
+  r.steps = per_round * kRounds;
+  r.seconds = seconds[1];
+  r.mps = r.mps_watchdog_on;
+  r.backend = sims[1]->backend_name();
+  r.pass_name = sims[1]->pass_name();
+  r.device_bytes_per_particle =
+      static_cast<double>(sims[1]->device_bytes()) / static_cast<double>(sims[1]->size());
+}
+
+}  // namespace
+
 BenchResult run_bench(const BenchOptions& o) {
-  using Clock = std::chrono::steady_clock;
   if (o.particles < 1000) throw ConfigError("--particles must be at least 1000");
   if (o.steps < 1) throw ConfigError("--steps must be at least 1");
   const auto t0 = Clock::now();
@@ -33,6 +81,20 @@ BenchResult run_bench(const BenchOptions& o) {
     throw ConfigError("--case must be bulk or porous (got " + o.case_name + ")");
   }
   s.model.precision = o.precision;
+  if (o.compare_watchdog) {
+    BenchResult r;
+    r.case_name = o.case_name;
+    r.backend = sim::to_string(o.sim.backend);
+    r.precision = sim::to_string(o.precision);
+    r.particles = static_cast<std::int64_t>(s.particles.size());
+    r.cells_per_rc = o.sim.cells_per_cutoff;
+    r.threads = o.sim.backend == sim::BackendKind::CPU
+                    ? (o.sim.threads > 0 ? o.sim.threads : omp_get_max_threads())
+                    : 0;
+    time_watchdog_rounds(o, s, r);
+    r.setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count() - r.seconds;
+    return r;
+  }
   sim::SimulationOptions timed = o.sim;
   timed.profile = false;  // the timed run never synchronises per step
   auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, timed);
@@ -51,6 +113,7 @@ BenchResult run_bench(const BenchOptions& o) {
   r.pass_name = sim->pass_name();
   r.particles = static_cast<std::int64_t>(sim->size());
   r.steps = o.steps;
+  r.watchdog = o.sim.watchdog.enabled;
   r.cells_per_rc = o.sim.cells_per_cutoff;
   r.ranks = sim->ranks();
   r.reorder_every = o.sim.reorder_every;
@@ -93,6 +156,13 @@ std::string format_bench_json(const BenchResult& r) {
                       {"ranks", r.ranks},
                       {"decomposed", r.decomposed}};
   if (!r.profile.empty()) j["profile"] = r.profile;
+  if (r.mps_watchdog_off > 0) {
+    j["mps_watchdog_off"] = r.mps_watchdog_off;
+    j["mps_watchdog_on"] = r.mps_watchdog_on;
+    j["watchdog_cost_percent"] = r.watchdog_cost_percent;
+  } else {
+    j["watchdog"] = r.watchdog;
+  }
   return j.dump();
 }
 
@@ -110,6 +180,12 @@ std::string format_bench_text(const BenchResult& r) {
     s << ", " << r.device_bytes_per_particle << " GPU bytes/particle";
   s << "\n";
   if (!r.profile.empty()) s << "  " << r.profile << "\n";
+  if (r.mps_watchdog_off > 0)
+    s << "  watchdog off " << r.mps_watchdog_off << " MPS/s, on " << r.mps_watchdog_on
+      << " MPS/s: the watchdog costs " << std::setprecision(2) << r.watchdog_cost_percent
+      << "% of a step\n";
+  else if (!r.watchdog)
+    s << "  (watchdog off)\n";
   return s.str();
 }
 

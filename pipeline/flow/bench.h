@@ -13,6 +13,8 @@ struct BenchOptions {
   std::uint64_t steps = 200;
   sim::Precision precision = sim::Precision::Single;
   sim::SimulationOptions sim;
+  // Times the same case with the watchdog off and on, in alternating rounds (its cost).
+  bool compare_watchdog = false;
 };
 
 struct BenchResult {
@@ -30,6 +32,9 @@ struct BenchResult {
   double setup_seconds = 0;
   double device_bytes_per_particle = 0;  // 0 on the CPU
   std::string profile;                   // per-pass GPU times with --profile
+  bool watchdog = true;
+  // compare_watchdog only: MPS/s with the watchdog off and on, and its cost in % of a step.
+  double mps_watchdog_off = 0, mps_watchdog_on = 0, watchdog_cost_percent = 0;
 };
 
 // Builds the case, runs steps/10 (at least 5) warm-up steps, then times `steps` steps.

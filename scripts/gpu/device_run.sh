@@ -7,6 +7,8 @@
 #   bash scripts/gpu/device_run.sh perf    # tests + benchmarks of every carried rockflow variant
 #                                          # (build_bundle.sh VARIANTS=...), side by side, with
 #                                          # per-pass profiles; no validation
+#   bash scripts/gpu/device_run.sh watchdog  # tests + the watchdog's cost: each case timed with
+#                                          # the watchdog off and on in one process (sim/watchdog.h)
 set -uo pipefail
 mode=${1:-quick}
 out=${OUT:-gpu-out}
@@ -32,6 +34,7 @@ fi
 size=small
 [ "$mode" = full ] && size=full
 [ "$mode" = perf ] && CASES=${CASES:-none}
+[ "$mode" = watchdog ] && CASES=${CASES:-none}
 for c in ${CASES:-eos-dpd eos-mdpd conservation slab viscosity poiseuille-walls no-penetration flooding-mini}; do
   [ "$c" = none ] && continue
   $bin/rockflow validate $c --size $size --backend cuda --json 2>>"$out/validate.log" | tee -a "$out/validate.jsonl" | cut -c1-200
@@ -58,6 +61,11 @@ if [ "$mode" = perf ]; then
     done
   done
   bench $bin/rockflow --case porous --particles 2100000 --steps 200 --compare-cpu --threads $(nproc)
+elif [ "$mode" = watchdog ]; then
+  for p in "porous 2100000 400" "bulk 1000000 400" "porous 16000000 200" "bulk 16000000 200"; do
+    set -- $p
+    bench $bin/rockflow --case $1 --particles $2 --steps $3 --watchdog compare
+  done
 else
   bench $bin/rockflow --case porous --particles 2100000 --steps 200 --compare-cpu --threads $(nproc)
   bench $bin/rockflow --case bulk --particles 1000000 --steps 200
@@ -78,6 +86,8 @@ for line in (out / "bench.jsonl").read_text().splitlines():
     passes = j.get("profile", "")
     passes = passes.replace("per-step GPU time over ", "").replace(" steps (ms):", ":")
     print("%-18s %-8s %10d %3s %10.1f %10.2f %6.0f  %s" % (j.get("binary", ""), j["case"], j["particles"], j.get("cells_per_rc", ""), j["mps"], cpu, j.get("gpu_bytes_per_particle", 0), passes))
+    if "watchdog_cost_percent" in j:
+        print("    watchdog off %.1f MPS/s, on %.1f MPS/s: cost %.2f%% of a step" % (j["mps_watchdog_off"], j["mps_watchdog_on"], j["watchdog_cost_percent"]))
 vpath = out / "validate.jsonl"
 for line in (vpath.read_text().splitlines() if vpath.exists() else []):
     j = json.loads(line)

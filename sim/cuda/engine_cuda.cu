@@ -17,6 +17,7 @@
 #include "sim/kernels.h"
 #include "sim/simulation.h"
 #include "sim/terms.h"
+#include "sim/watchdog.h"
 
 namespace mesorock::sim {
 
@@ -450,6 +451,16 @@ __global__ void virial_kernel(StepView<Real> v, VirialRegion<Real> region, doubl
     }
 }
 
+// The watchdog's check after a step (sim/watchdog.h); hits go to the record in device memory.
+template <class Real>
+__global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n) return;
+  double value = 0;
+  const int q = watchdog_check(v, i, max_speed2, value);
+  if (q != kWatchdogOk) watchdog_record(record, v.step, v.id[i], q, value);
+}
+
 // Binned sums (count, v, v*v) with atomics. The order of the atomic additions varies, so the last
 // bits of a GPU profile may differ between runs; the trajectory itself does not.
 template <class Real>
@@ -484,6 +495,8 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     if (profile_)
       for (auto& e : events_) cudaEventDestroy(e);
     if (count_host_) cudaFreeHost(count_host_);
+    if (watchdog_host_) cudaFreeHost(watchdog_host_);
+    if (watchdog_event_) cudaEventDestroy(watchdog_event_);
   }
 
   const char* name() const override { return "cuda"; }
@@ -569,12 +582,54 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
       kick_kernel<<<blocks_for(n_), kBlock>>>(view());
       if (!host_->injections.empty()) inject();
       mark(5);
+      if (this->watchdog_.enabled) watchdog_step();
       if (profile_) accumulate();
     }
     check(cudaGetLastError(), "step kernels");
+    if (this->watchdog_.enabled && steps > 0) watchdog_poll(true);
   }
 
   void set_dt(Real dt) override { dt_ = dt; }
+
+  // The watchdog: a check kernel per step; the host reads the record every poll_steps steps
+  // through pinned memory (reading the copy enqueued at the previous poll, long done by then) and
+  // synchronously at the end of run().
+  void watchdog_step() {
+    if (!watchdog_host_) {
+      watchdog_record_.upload(std::vector<WatchdogRecord>(1));
+      check(cudaMallocHost(&watchdog_host_, sizeof(WatchdogRecord)), "cudaMallocHost");
+      check(cudaEventCreateWithFlags(&watchdog_event_, cudaEventDisableTiming), "cudaEventCreate");
+    }
+    const double limit = watchdog_speed_limit(this->watchdog_, static_cast<double>(dt_));
+    watchdog_kernel<Real><<<blocks_for(n_), kBlock>>>(view(), static_cast<Real>(limit * limit),
+                                                      watchdog_record_.get());
+    if (++watchdog_since_poll_ >= this->watchdog_.poll_steps) watchdog_poll(false);
+  }
+  void watchdog_poll(bool now) {
+    watchdog_since_poll_ = 0;
+    if (watchdog_pending_) {
+      check(cudaEventSynchronize(watchdog_event_), "watchdog poll");
+      watchdog_pending_ = false;
+      watchdog_throw_if_hit();
+    }
+    if (now) {
+      check(cudaMemcpy(watchdog_host_, watchdog_record_.get(), sizeof(WatchdogRecord),
+                       cudaMemcpyDeviceToHost),
+            "watchdog read");
+      watchdog_throw_if_hit();
+    } else {
+      check(cudaMemcpyAsync(watchdog_host_, watchdog_record_.get(), sizeof(WatchdogRecord),
+                            cudaMemcpyDeviceToHost),
+            "watchdog copy");
+      check(cudaEventRecord(watchdog_event_), "watchdog event");
+      watchdog_pending_ = true;
+    }
+  }
+  void watchdog_throw_if_hit() const {
+    WatchdogHit hit;
+    if (first_watchdog_hit(*watchdog_host_, hit))
+      throw NumericalError(watchdog_message(hit, this->watchdog_, static_cast<double>(dt_)));
+  }
   std::uint64_t step() const override { return step_; }
 
   void download(HostState<Real>& host) override {
@@ -1071,6 +1126,11 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   cudaEvent_t events_[6] = {};
   double pass_ms_[5] = {0, 0, 0, 0, 0};
   std::uint64_t profiled_steps_ = 0;
+  DeviceBuffer<WatchdogRecord> watchdog_record_;  // allocated at the first checked step
+  WatchdogRecord* watchdog_host_ = nullptr;       // pinned
+  cudaEvent_t watchdog_event_ = nullptr;
+  bool watchdog_pending_ = false;
+  int watchdog_since_poll_ = 0;
 };
 
 }  // namespace

@@ -70,6 +70,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
     engine_ = make_engine<Real>(model, opt);
     engine_->initialize(state_, this);
+    engine_->set_watchdog(opt.watchdog);
     host_current_ = false;
   }
 
