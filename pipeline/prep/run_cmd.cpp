@@ -6,6 +6,8 @@
 //   DIR/tiles.h5                        the tile sets used (a tile database)
 //   DIR/run.json                        provenance, parameters, counts, timings, memory
 //   DIR/particles.data                  with --lammps: the same particles as a LAMMPS data file
+#include <omp.h>
+
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -157,6 +159,7 @@ int run_run(const RunArgs& a) {
   tiledb::TileDatabase db;
   if (!a.tiles_db.empty() && fs::exists(a.tiles_db)) db = tiledb::read_tile_database(a.tiles_db);
 
+  if (a.generation.threads > 0) omp_set_num_threads(a.generation.threads);
   Progress progress(a.quiet);
   auto say = [&](const std::string& line) { progress.note(line); };
   nlohmann::json record = provenance("run");

@@ -315,13 +315,23 @@ CaseResult run_packing_walls(const ValidateOptions& o, double dt, bool wall_mode
 
   const double diff = lattice.T.rms - tile.T.rms;
   const double diff_error = std::hypot(tile.T.error, lattice.T.error);
+  const std::string compared = "the lattice packing's " + fmt(lattice.T.rms, 3) + " +- " +
+                               fmt(lattice.T.error, 2) + " (difference " + fmt(diff, 3) + " +- " +
+                               fmt(diff_error, 2) + ", " +
+                               fmt(diff_error > 0 ? diff / diff_error : 0, 2) + " sigma)";
+  // The difference is a few tenths of a percent at dt = 0.01 (docs/validation.md): the full size
+  // resolves it and judges the issue's "smaller"; the CI size cannot, and checks only that the
+  // tiles are not worse beyond two standard errors (a test that passed or failed on noise would
+  // tell nothing).
+  const bool full = o.size == CaseSize::Full;
   r.quantities.push_back(judged(
       "near-wall temperature deviation, tiles (noise-corrected RMS of T/T_bulk - 1 over 4 "
       "layers of 0.25 rc)",
-      tile.T.rms, tile.T.error, lattice.T.rms, 0,
-      "issue 8: smaller than the lattice packing's " + fmt(lattice.T.rms, 3) + " +- " +
-          fmt(lattice.T.error, 2) + " (difference " + fmt(diff, 3) + " +- " + fmt(diff_error, 2) +
-          ", " + fmt(diff_error > 0 ? diff / diff_error : 0, 2) + " sigma)",
+      tile.T.rms, tile.T.error, full ? lattice.T.rms : lattice.T.rms + 2 * diff_error, 0,
+      full ? "issue 8: smaller than " + compared
+           : "at most " + compared +
+                 " + 2 sigma (the small size cannot resolve the difference; --size full judges "
+                 "'smaller')",
       Comparison::AtMost));
   r.quantities.push_back(
       judged("near-wall density deviation, tiles (same measure for rho/rho_bulk - 1)", tile.rho.rms,
