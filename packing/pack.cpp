@@ -54,6 +54,25 @@ struct Layer {
   std::vector<RoleCount> counts;
 };
 
+// Empties a set but keeps its capacity: the buffers are reused layer after layer, so the packer
+// does not fault fresh pages in for every layer.
+void clear(sim::ParticleSet& p) {
+  for (auto* v : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz}) v->clear();
+  p.type.clear();
+  p.id.clear();
+}
+
+void append(sim::ParticleSet& to, const sim::ParticleSet& from) {
+  to.x.insert(to.x.end(), from.x.begin(), from.x.end());
+  to.y.insert(to.y.end(), from.y.begin(), from.y.end());
+  to.z.insert(to.z.end(), from.z.begin(), from.z.end());
+  to.vx.insert(to.vx.end(), from.vx.begin(), from.vx.end());
+  to.vy.insert(to.vy.end(), from.vy.begin(), from.vy.end());
+  to.vz.insert(to.vz.end(), from.vz.begin(), from.vz.end());
+  to.type.insert(to.type.end(), from.type.begin(), from.type.end());
+  to.id.insert(to.id.end(), from.id.begin(), from.id.end());
+}
+
 class LayerPacker {
  public:
   LayerPacker(const voxel::Volume& codes, const std::vector<Prepared>& roles, const PackOptions& o)
@@ -62,7 +81,7 @@ class LayerPacker {
   }
 
   void pack(std::int64_t z, Layer& out) const {
-    out.particles = sim::ParticleSet();
+    clear(out.particles);
     out.counts.assign(roles_.size(), RoleCount{});
     const std::uint8_t* row0 = codes_.slice<std::uint8_t>(z);
     // Reserve from the expected counts, so a layer's arrays do not double past their need.
@@ -255,22 +274,21 @@ PackStats pack_voxels(const voxel::Volume& codes, const std::vector<RoleSpec>& r
   std::int64_t next_id = o.first_id;
   std::int64_t reported = -1;
 
+  pending.reserve(o.chunk_particles);
   auto flush = [&]() {
     if (pending.size() == 0) return;
     sink.append(pending);
-    pending = sim::ParticleSet();
+    clear(pending);
   };
   auto take = [&](sim::ParticleSet& p) {
     for (std::size_t i = 0; i < p.size(); ++i) p.id[i] = next_id++;
-    if (pending.size() == 0 && p.size() >= o.chunk_particles) {
+    // pending never grows past a chunk, so its buffers are allocated once.
+    if (pending.size() + p.size() > o.chunk_particles) flush();
+    if (p.size() >= o.chunk_particles) {
       sink.append(p);
       return;
     }
-    MemorySink merge;
-    merge.particles = std::move(pending);
-    merge.append(p);
-    pending = std::move(merge.particles);
-    if (pending.size() >= o.chunk_particles) flush();
+    append(pending, p);
   };
 
   for (std::int64_t z0 = 0; z0 < shape.nz; z0 += block) {
@@ -286,9 +304,9 @@ PackStats pack_voxels(const voxel::Volume& codes, const std::vector<RoleSpec>& r
       }
     }
     if (error) std::rethrow_exception(error);
-    std::size_t held = pending.size();
-    for (std::int64_t z = z0; z < z1; ++z)
-      held += layers[static_cast<std::size_t>(z - z0)].particles.size();
+    // What the packer holds: the buffers' capacities (kept from layer to layer).
+    std::size_t held = pending.x.capacity();
+    for (const Layer& l : layers) held += l.particles.x.capacity();
     stats.peak_buffer_bytes = std::max(stats.peak_buffer_bytes, held * kParticleBytes);
     for (std::int64_t z = z0; z < z1; ++z) {
       Layer& l = layers[static_cast<std::size_t>(z - z0)];
@@ -299,7 +317,6 @@ PackStats pack_voxels(const voxel::Volume& codes, const std::vector<RoleSpec>& r
         stats.roles[k].variance += l.counts[k].variance;
       }
       take(l.particles);
-      l.particles = sim::ParticleSet();
     }
     if (o.progress) {
       const std::int64_t tenth = z1 * 10 / shape.nz;

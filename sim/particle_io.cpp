@@ -413,6 +413,7 @@ struct ParticleFileWriter::Impl {
   Handle position, velocity, type, id;
   hsize_t rows = 0;
   bool committed = false;
+  std::vector<double> xyz;  // interleaving buffer, kept between appends
 
   // An empty dataset of `cols` columns (0: one-dimensional) that grows along its first axis.
   Handle growing(const char* name, hid_t file_type, hsize_t cols) {
@@ -487,7 +488,8 @@ void ParticleFileWriter::append(const ParticleSet& p) {
   check_particles_writable(p, m.meta.type_names.size(), m.file);
   const size_t n = p.size();
   if (n == 0) return;
-  std::vector<double> xyz(3 * n);
+  std::vector<double>& xyz = m.xyz;
+  xyz.resize(3 * n);
   const auto interleave = [&](const std::vector<double>& a, const std::vector<double>& b,
                               const std::vector<double>& c) {
     for (size_t i = 0; i < n; ++i) {
