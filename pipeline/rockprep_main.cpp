@@ -1,6 +1,6 @@
 // rockprep: image stack -> phase grids -> pore statistics -> particles (subcommands grow with the
 // rockprep issues). Part 1: load, filter, segment, synth; part 2: analyze, crop, resample, walls
-// (see docs/voxel.md).
+// (see docs/voxel.md); part 3: tiles, run, validate (docs/packing.md).
 #include <CLI/CLI.hpp>
 
 #include <iostream>
@@ -21,7 +21,9 @@ int main(int argc, char** argv) {
         prep::add_load_command(app),     prep::add_filter_command(app),
         prep::add_segment_command(app),  prep::add_synth_command(app),
         prep::add_analyze_command(app),  prep::add_crop_command(app),
-        prep::add_resample_command(app), prep::add_walls_command(app)};
+        prep::add_resample_command(app), prep::add_walls_command(app),
+        prep::add_tiles_command(app),    prep::add_run_command(app),
+        prep::add_validate_command(app)};
     app.require_subcommand(0, 1);
     try {
       app.parse(argc, argv);

@@ -2,7 +2,8 @@
 // Internal helpers shared by the HDF5 writers and readers of sim/ (particle_io.cpp, field_io.cpp):
 // an owning handle for HDF5 identifiers, IoError messages of the form "<file>: <where>: <problem>",
 // dataset/attribute writers, and the small text helpers the XDMF sidecars need.
-// Not part of the public API: only sim/*.cpp include it.
+// Not part of the public API: only sim/*.cpp and tiledb/database.cpp (tiledb depends on sim)
+// include it.
 #include <hdf5.h>
 
 #include <charconv>

@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <utility>
 
 #include "mesorock/atomic_file.h"
@@ -170,16 +171,41 @@ std::optional<std::string> read_scalar_string(hid_t obj, const char* name, const
   return v->front();
 }
 
-}  // namespace
+// The attributes of /particles and of the root group (docs/scene.md), shared by the whole-set
+// writer and the streaming one.
+void write_particle_attributes(hid_t f, hid_t g, const ParticleFileMeta& meta,
+                               const std::string& file) {
+  Handle st = vlen_string_type(file);
+  std::vector<const char*> names;
+  for (const auto& s : meta.type_names) names.push_back(s.c_str());
+  write_attribute(g, "type_names", "/particles@type_names", st.get(), st.get(),
+                  {static_cast<hsize_t>(names.size())}, names.data(), file);
+  write_attribute(g, "box_lo", "/particles@box_lo", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {3},
+                  meta.box.lo.data(), file);
+  write_attribute(g, "box_hi", "/particles@box_hi", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {3},
+                  meta.box.hi.data(), file);
+  const std::array<std::int32_t, 3> periodic{
+      meta.box.periodic[0] ? 1 : 0, meta.box.periodic[1] ? 1 : 0, meta.box.periodic[2] ? 1 : 0};
+  write_attribute(g, "periodic", "/particles@periodic", H5T_STD_I32LE, H5T_NATIVE_INT32, {3},
+                  periodic.data(), file);
+  write_attribute(g, "step", "/particles@step", H5T_STD_U64LE, H5T_NATIVE_UINT64, {}, &meta.step,
+                  file);
+  write_attribute(g, "time", "/particles@time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {}, &meta.time,
+                  file);
+  write_string_attribute(f, "mesorock_version", "/@mesorock_version", kVersion, file);
+  write_string_attribute(f, "git_commit", "/@git_commit", kGitCommit, file);
+  write_string_attribute(f, "created_by", "/@created_by", meta.created_by, file);
+  write_string_attribute(f, "provenance", "/@provenance", meta.provenance_json, file);
+  write_string_attribute(f, "length_unit", "/@length_unit", meta.length_unit, file);
+}
 
-void write_particle_file(const fs::path& path, const ParticleSet& p, const ParticleFileMeta& meta) {
-  silence_hdf5_errors();
-  const std::string file = path.string();
+// Every type indexes type_names and every position and velocity is finite (IoError otherwise).
+void check_particles_writable(const ParticleSet& p, std::size_t ntypes_u, const std::string& file) {
   const size_t n = p.size();
   if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
       p.vz.size() != n || p.type.size() != n || p.id.size() != n)
     fail(file, "", "cannot write: particle arrays have different lengths");
-  const auto ntypes = static_cast<std::int64_t>(meta.type_names.size());
+  const auto ntypes = static_cast<std::int64_t>(ntypes_u);
   for (size_t i = 0; i < n; ++i) {
     if (p.type[i] < 0 || p.type[i] >= ntypes)
       fail(file, "/particles/type",
@@ -192,6 +218,15 @@ void write_particle_file(const fs::path& path, const ParticleSet& p, const Parti
              "cannot write: particle " + std::to_string(p.id[i]) +
                  " has a non-finite position or velocity");
   }
+}
+
+}  // namespace
+
+void write_particle_file(const fs::path& path, const ParticleSet& p, const ParticleFileMeta& meta) {
+  silence_hdf5_errors();
+  const std::string file = path.string();
+  const size_t n = p.size();
+  check_particles_writable(p, meta.type_names.size(), file);
 
   std::vector<double> pos(3 * n), vel(3 * n);
   for (size_t i = 0; i < n; ++i) {
@@ -220,29 +255,8 @@ void write_particle_file(const fs::path& path, const ParticleSet& p, const Parti
       write_dataset(g.get(), "id", "/particles/id", H5T_STD_I64LE, H5T_NATIVE_INT64, {hn},
                     p.id.data(), file);
 
-      Handle st = vlen_string_type(file);
-      std::vector<const char*> names;
-      for (const auto& s : meta.type_names) names.push_back(s.c_str());
-      write_attribute(g.get(), "type_names", "/particles@type_names", st.get(), st.get(),
-                      {static_cast<hsize_t>(names.size())}, names.data(), file);
-      write_attribute(g.get(), "box_lo", "/particles@box_lo", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
-                      {3}, meta.box.lo.data(), file);
-      write_attribute(g.get(), "box_hi", "/particles@box_hi", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
-                      {3}, meta.box.hi.data(), file);
-      const std::array<std::int32_t, 3> periodic{
-          meta.box.periodic[0] ? 1 : 0, meta.box.periodic[1] ? 1 : 0, meta.box.periodic[2] ? 1 : 0};
-      write_attribute(g.get(), "periodic", "/particles@periodic", H5T_STD_I32LE, H5T_NATIVE_INT32,
-                      {3}, periodic.data(), file);
-      write_attribute(g.get(), "step", "/particles@step", H5T_STD_U64LE, H5T_NATIVE_UINT64, {},
-                      &meta.step, file);
-      write_attribute(g.get(), "time", "/particles@time", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {},
-                      &meta.time, file);
+      write_particle_attributes(f.get(), g.get(), meta, file);
     }
-    write_string_attribute(f.get(), "mesorock_version", "/@mesorock_version", kVersion, file);
-    write_string_attribute(f.get(), "git_commit", "/@git_commit", kGitCommit, file);
-    write_string_attribute(f.get(), "created_by", "/@created_by", meta.created_by, file);
-    write_string_attribute(f.get(), "provenance", "/@provenance", meta.provenance_json, file);
-    write_string_attribute(f.get(), "length_unit", "/@length_unit", meta.length_unit, file);
     if (!f.close()) fail(file, "", "cannot close file (write failed)");
   });
 }
@@ -386,6 +400,126 @@ void write_particle_xdmf(const fs::path& xmf, const fs::path& h5, std::size_t n,
     << "  </Domain>\n"
     << "</Xdmf>\n";
   write_text_atomically(xmf, x.str());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Streaming writer
+
+struct ParticleFileWriter::Impl {
+  fs::path target, tmp;
+  std::string file;
+  ParticleFileMeta meta;
+  Handle f, g;
+  Handle position, velocity, type, id;
+  hsize_t rows = 0;
+  bool committed = false;
+  std::vector<double> xyz;  // interleaving buffer, kept between appends
+
+  // An empty dataset of `cols` columns (0: one-dimensional) that grows along its first axis.
+  Handle growing(const char* name, hid_t file_type, hsize_t cols) {
+    const std::string where = std::string("/particles/") + name;
+    const int rank = cols == 0 ? 1 : 2;
+    const hsize_t dims[2] = {0, cols}, max[2] = {H5S_UNLIMITED, cols};
+    // 64 Ki rows per chunk: large enough that appends are a few big writes.
+    const hsize_t chunk[2] = {65536, cols};
+    Handle space = checked(H5Screate_simple(rank, dims, max), H5Sclose, file, where,
+                           "cannot create dataspace");
+    Handle dcpl =
+        checked(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, file, where, "cannot create dataset");
+    check(H5Pset_chunk(dcpl.get(), rank, chunk), file, where, "cannot create dataset");
+    return checked(
+        H5Dcreate2(g.get(), name, file_type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT),
+        H5Dclose, file, where, "cannot create dataset");
+  }
+
+  void extend_and_write(const Handle& ds, const char* name, hid_t mem_type, hsize_t cols,
+                        hsize_t count, const void* data) {
+    const std::string where = std::string("/particles/") + name;
+    const int rank = cols == 0 ? 1 : 2;
+    const hsize_t new_dims[2] = {rows + count, cols};
+    check(H5Dset_extent(ds.get(), new_dims), file, where, "write failed");
+    Handle space = checked(H5Dget_space(ds.get()), H5Sclose, file, where, "write failed");
+    const hsize_t start[2] = {rows, 0}, block[2] = {count, cols};
+    check(H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start, nullptr, block, nullptr), file,
+          where, "write failed");
+    Handle mem =
+        checked(H5Screate_simple(rank, block, nullptr), H5Sclose, file, where, "write failed");
+    check(H5Dwrite(ds.get(), mem_type, mem.get(), space.get(), H5P_DEFAULT, data), file, where,
+          "write failed");
+  }
+};
+
+ParticleFileWriter::ParticleFileWriter(const fs::path& path, ParticleFileMeta meta)
+    : impl_(std::make_unique<Impl>()) {
+  silence_hdf5_errors();
+  Impl& m = *impl_;
+  m.target = path;
+  m.tmp = temporary_path_for(path);
+  m.file = path.string();
+  m.meta = std::move(meta);
+  m.f = create_file(m.tmp, m.file);
+  m.g = checked(H5Gcreate2(m.f.get(), "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                m.file, "/particles", "cannot create group");
+  m.position = m.growing("position", H5T_IEEE_F64LE, 3);
+  m.velocity = m.growing("velocity", H5T_IEEE_F64LE, 3);
+  m.type = m.growing("type", H5T_STD_I32LE, 0);
+  m.id = m.growing("id", H5T_STD_I64LE, 0);
+}
+
+ParticleFileWriter::~ParticleFileWriter() {
+  if (!impl_ || impl_->committed) return;
+  impl_->position = Handle();
+  impl_->velocity = Handle();
+  impl_->type = Handle();
+  impl_->id = Handle();
+  impl_->g = Handle();
+  impl_->f = Handle();
+  std::error_code ignored;
+  fs::remove(impl_->tmp, ignored);
+}
+
+std::size_t ParticleFileWriter::size() const {
+  return static_cast<std::size_t>(impl_->rows);
+}
+
+void ParticleFileWriter::append(const ParticleSet& p) {
+  Impl& m = *impl_;
+  if (m.committed) throw std::logic_error("ParticleFileWriter::append after commit");
+  check_particles_writable(p, m.meta.type_names.size(), m.file);
+  const size_t n = p.size();
+  if (n == 0) return;
+  std::vector<double>& xyz = m.xyz;
+  xyz.resize(3 * n);
+  const auto interleave = [&](const std::vector<double>& a, const std::vector<double>& b,
+                              const std::vector<double>& c) {
+    for (size_t i = 0; i < n; ++i) {
+      xyz[3 * i] = a[i];
+      xyz[3 * i + 1] = b[i];
+      xyz[3 * i + 2] = c[i];
+    }
+  };
+  const hsize_t count = static_cast<hsize_t>(n);
+  interleave(p.x, p.y, p.z);
+  m.extend_and_write(m.position, "position", H5T_NATIVE_DOUBLE, 3, count, xyz.data());
+  interleave(p.vx, p.vy, p.vz);
+  m.extend_and_write(m.velocity, "velocity", H5T_NATIVE_DOUBLE, 3, count, xyz.data());
+  m.extend_and_write(m.type, "type", H5T_NATIVE_INT32, 0, count, p.type.data());
+  m.extend_and_write(m.id, "id", H5T_NATIVE_INT64, 0, count, p.id.data());
+  m.rows += count;
+}
+
+void ParticleFileWriter::commit() {
+  Impl& m = *impl_;
+  if (m.committed) return;
+  for (Handle* h : {&m.position, &m.velocity, &m.type, &m.id})
+    if (!h->close()) fail(m.file, "/particles", "write failed");
+  write_particle_attributes(m.f.get(), m.g.get(), m.meta, m.file);
+  m.g.close();
+  if (!m.f.close()) fail(m.file, "", "cannot close file (write failed)");
+  std::error_code ec;
+  fs::rename(m.tmp, m.target, ec);
+  if (ec) fail(m.file, "", "cannot rename temporary file: " + ec.message());
+  m.committed = true;
 }
 
 }  // namespace mesorock::sim

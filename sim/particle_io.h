@@ -11,6 +11,7 @@
 // Every failure is an IoError whose message names the file (and the dataset or attribute).
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,6 +38,28 @@ struct ParticleFileMeta {
 // must be finite (else IoError before anything is written).
 void write_particle_file(const std::filesystem::path& path, const ParticleSet& p,
                          const ParticleFileMeta& meta);
+
+// Writes a particle file chunk by chunk (the same layout, in chunked datasets that grow with each
+// append), so that a packing of 10^8 particles never holds them all in memory. Each chunk is
+// checked as write_particle_file checks a whole set (type indices, finite values); ids are the
+// caller's to keep unique. The file appears at `path` only when commit() succeeds; a writer
+// destroyed before that removes its temporary file, so a failed run leaves nothing behind.
+class ParticleFileWriter {
+ public:
+  ParticleFileWriter(const std::filesystem::path& path, ParticleFileMeta meta);
+  ~ParticleFileWriter();
+  ParticleFileWriter(const ParticleFileWriter&) = delete;
+  ParticleFileWriter& operator=(const ParticleFileWriter&) = delete;
+
+  void append(const ParticleSet& chunk);
+  std::size_t size() const;  // particles appended so far
+  // Writes the attributes, closes the file and renames it into place.
+  void commit();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 // Reads and validates a particle file: dataset shapes and lengths, finite positions and
 // velocities, type indices within type_names, finite box with hi > lo. Fills *meta_out when given.

@@ -335,6 +335,13 @@ void join_row(const PoreRuns& runs, std::int64_t z, std::int64_t y, std::int64_t
 }  // namespace
 
 std::vector<Cluster> find_pore_clusters(const PoreRuns& runs, const ClusterOptions& options) {
+  std::vector<Cluster> clusters;
+  label_pore_runs(runs, options, &clusters);
+  return clusters;
+}
+
+std::vector<std::uint32_t> label_pore_runs(const PoreRuns& runs, const ClusterOptions& options,
+                                           std::vector<Cluster>* clusters_out) {
   if (options.connectivity != 6 && options.connectivity != 26) {
     throw ConfigError("connectivity must be 6 or 26, not " + std::to_string(options.connectivity));
   }
@@ -412,7 +419,8 @@ std::vector<Cluster> find_pore_clusters(const PoreRuns& runs, const ClusterOptio
       }
     }
   }
-  return out;
+  if (clusters_out) *clusters_out = std::move(out);
+  return std::move(id);
 }
 
 PercolationSummary summarize_clusters(const std::vector<Cluster>& clusters, std::size_t largest) {

@@ -105,6 +105,11 @@ struct ClusterOptions {
 // count.
 std::vector<Cluster> find_pore_clusters(const PoreRuns& runs, const ClusterOptions& options = {});
 
+// The same labelling, giving the cluster index of every run (runs in PoreRuns order) so that a
+// caller can select voxels by cluster; the clusters go to *clusters when given.
+std::vector<std::uint32_t> label_pore_runs(const PoreRuns& runs, const ClusterOptions& options = {},
+                                           std::vector<Cluster>* clusters = nullptr);
+
 struct PercolationSummary {
   std::int64_t clusters = 0;
   std::array<std::int64_t, 3> spanning_clusters{};  // per axis

@@ -35,6 +35,11 @@ Command add_analyze_command(CLI::App& rockprep);
 Command add_crop_command(CLI::App& rockprep);
 Command add_resample_command(CLI::App& rockprep);
 Command add_walls_command(CLI::App& rockprep);
+// Part 3 (docs/packing.md): the tile database, the whole chain to a flooding set-up, and the
+// packing validation case.
+Command add_tiles_command(CLI::App& rockprep);
+Command add_run_command(CLI::App& rockprep);
+Command add_validate_command(CLI::App& rockprep);
 
 // The command line as typed, recorded in every output's provenance.
 void set_command_line(int argc, char** argv);

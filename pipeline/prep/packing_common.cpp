@@ -1,0 +1,101 @@
+#include "pipeline/prep/packing_common.h"
+
+#include <sys/resource.h>
+
+#include "mesorock/errors.h"
+#include "pipeline/prep/common.h"
+
+namespace mesorock::pipeline::prep {
+
+std::array<double, 3> parse_voxel_rc(const std::string& text, const std::string& option) {
+  const std::vector<double> v = parse_numbers(text, option);
+  if (v.size() != 3) throw ConfigError(option + ": expected DZ,DY,DX in rc, got '" + text + "'");
+  for (double d : v)
+    if (!(d > 0)) throw ConfigError(option + ": voxel edges must be positive ('" + text + "')");
+  return {v[2], v[1], v[0]};
+}
+
+double default_density(tiledb::TileRole role) {
+  return role == tiledb::TileRole::Wall ? 8.0 : 6.5;
+}
+
+void TileInteractionArgs::add_to(CLI::App* app, const std::string& prefix) {
+  const std::string p = prefix.empty() ? "--" : "--" + prefix + "-";
+  app->add_option(p + "A", A, "Tiles' pair set: attraction A (default -40)");
+  app->add_option(p + "B", B, "Tiles' pair set: many-body repulsion B (default 25)");
+  app->add_option(p + "rd", rd, "Tiles' pair set: many-body cutoff rd (default 0.75)");
+  app->add_option(p + "gamma", gamma, "Tiles' pair set: dissipation gamma (default 4.5)");
+  app->add_option(p + "kbt", kBT, "Tiles' temperature kBT (default 1)");
+  app->add_option(p + "density-kernel", density_kernel, "warren (default) or lucy")
+      ->check(CLI::IsMember({"warren", "lucy"}));
+}
+
+void TileInteractionArgs::apply_to(tiledb::TileKey& key) const {
+  key.A = A;
+  key.B = B;
+  key.rd = rd;
+  key.gamma = gamma;
+  key.kBT = kBT;
+  key.density_kernel =
+      density_kernel == "lucy" ? sim::DensityKernelKind::Lucy : sim::DensityKernelKind::Warren;
+}
+
+void TileGenerationArgs::add_to(CLI::App* app, const std::string& prefix) {
+  const std::string p = "--" + prefix;
+  app->add_option(p + "variants", variants,
+                  "Tiles per set, at least (whole snapshots are kept; default 1024)");
+  app->add_option(p + "box-edge", box_edge,
+                  "Equilibration box edge, rc (rounded up to whole tiles; default 6)");
+  app->add_option(p + "relax-steps", relax,
+                  "Tiles: relaxation steps at dt/5 from random positions (default 200)");
+  app->add_option(p + "equilibrate-steps", equilibrate,
+                  "Tiles: equilibration steps before the first cut (default 2000)");
+  app->add_option(p + "decorrelate-steps", decorrelate, "Tiles: steps between cuts (default 500)");
+  app->add_option(p + "dt", dt, "Tiles: time step of the equilibration (default 0.01)");
+  app->add_option(p + "seed", seed, "Tiles: seed of the tile generation (default 1)");
+  app->add_option("--threads", threads, "CPU threads of the solver and the packing (default: all cores)")
+      ->check(CLI::NonNegativeNumber);
+}
+
+tiledb::TileBuildOptions TileGenerationArgs::options(const std::string& provenance_json) const {
+  tiledb::TileBuildOptions o;
+  o.variants = variants;
+  o.min_box_edge = box_edge;
+  o.relax_steps = relax;
+  o.equilibration_steps = equilibrate;
+  o.decorrelation_steps = decorrelate;
+  o.dt = dt;
+  o.seed = seed;
+  o.sim.threads = threads;
+  o.provenance_json = provenance_json;
+  return o;
+}
+
+const tiledb::TileSet& find_or_build_tiles(tiledb::TileDatabase& db, const tiledb::TileKey& key,
+                                           const TileGenerationArgs& generation,
+                                           const std::string& provenance_json,
+                                           const std::function<void(const std::string&)>& say,
+                                           bool* built) {
+  if (const tiledb::TileSet* s = db.find(key)) {
+    if (built) *built = false;
+    return *s;
+  }
+  tiledb::TileBuildOptions o = generation.options(provenance_json);
+  o.progress = say;
+  tiledb::TileSet set = tiledb::build_tile_set(key, o);
+  const tiledb::TileCheck check = tiledb::check_tile_set(set);
+  if (!check.pass)
+    throw NumericalError("tiles " + key.str() + " failed their check: " + check.str());
+  if (say) say("  check: " + check.str());
+  db.put(std::move(set));
+  if (built) *built = true;
+  return *db.find(key);
+}
+
+std::size_t peak_rss_bytes() {
+  struct rusage u {};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<std::size_t>(u.ru_maxrss) * 1024;
+}
+
+}  // namespace mesorock::pipeline::prep

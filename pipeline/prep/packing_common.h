@@ -1,0 +1,55 @@
+#pragma once
+// Options and helpers the particle commands share (tiles, run, validate): the tile key's
+// interaction set, how tile sets are generated, and voxel edges in rc.
+#include <CLI/CLI.hpp>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "tiledb/database.h"
+#include "tiledb/generate.h"
+
+namespace mesorock::pipeline::prep {
+
+// "DZ,DY,DX" (the order of --spacing) in rc -> edges (x, y, z); ConfigError naming `option`.
+std::array<double, 3> parse_voxel_rc(const std::string& text, const std::string& option);
+
+// 8 for walls (the papers' wall density), 6.5 for fluid (a homogeneous A = -40 liquid: it
+// coexists with vapour at 6.07).
+double default_density(tiledb::TileRole role);
+
+// The mDPD pair set the tiles are equilibrated with.
+struct TileInteractionArgs {
+  double A = -40, B = 25, rd = 0.75, gamma = 4.5, kBT = 1.0;
+  std::string density_kernel = "warren";
+  void add_to(CLI::App* app, const std::string& prefix = "");
+  void apply_to(tiledb::TileKey& key) const;
+};
+
+// How tile sets are generated.
+struct TileGenerationArgs {
+  std::size_t variants = 1024;
+  double box_edge = 6.0;
+  std::uint64_t relax = 200, equilibrate = 2000, decorrelate = 500;
+  double dt = 0.01;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  // Options --variants, --box-edge, --relax-steps, ... with `prefix` after the dashes ("tile-"
+  // where the command has options of its own by those names), and --threads.
+  void add_to(CLI::App* app, const std::string& prefix = "");
+  tiledb::TileBuildOptions options(const std::string& provenance_json) const;
+};
+
+// The set with `key` from `db`, built (and added to db) when missing; `built` tells which.
+const tiledb::TileSet& find_or_build_tiles(tiledb::TileDatabase& db, const tiledb::TileKey& key,
+                                           const TileGenerationArgs& generation,
+                                           const std::string& provenance_json,
+                                           const std::function<void(const std::string&)>& say,
+                                           bool* built);
+
+// Peak resident memory of this process so far (getrusage), bytes.
+std::size_t peak_rss_bytes();
+
+}  // namespace mesorock::pipeline::prep

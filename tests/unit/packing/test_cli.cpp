@@ -1,0 +1,205 @@
+// rockprep tiles and rockprep run on the command line: the documented outputs with provenance,
+// a scene that the scene reader and `rockflow run` accept as written, exit code 2 with one line
+// and no output for bad input, and exit code 1 from `tiles check` for a damaged set.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+
+#include "pipeline/scene.h"
+#include "sim/particle_io.h"
+#include "support/test_support.h"
+#include "tiledb/database.h"
+
+namespace mesorock::packing {
+namespace {
+
+namespace fs = std::filesystem;
+using mesorock::test::CommandResult;
+using mesorock::test::run_command;
+using mesorock::test::shell_quote;
+using mesorock::test::TempDir;
+
+std::string rockprep() {
+  // One thread: these systems are tiny, and the results do not depend on it.
+  return "OMP_NUM_THREADS=1 " + shell_quote(MESOROCK_ROCKPREP);
+}
+
+// A small tile database: 0.5 rc walls (rho 8) and fluid (rho 6.5), 512 tiles each.
+const fs::path& small_db() {
+  static TempDir dir;
+  static const fs::path db = [] {
+    const fs::path p = dir / "tiles.h5";
+    for (const char* role : {"wall", "fluid"}) {
+      const CommandResult r =
+          run_command(rockprep() + " tiles build " + shell_quote(p.string()) + " --role " + role +
+                          " --variants 500 --box-edge 4 --relax-steps 100"
+                          " --equilibrate-steps 1000 --quiet",
+                      dir.path());
+      EXPECT_EQ(r.exit_code, 0) << r.err;
+    }
+    return p;
+  }();
+  return db;
+}
+
+TEST(PackingCli, TilesBuildListCheck) {
+  TempDir tmp;
+  const fs::path& db = small_db();
+  CommandResult r = run_command(rockprep() + " tiles list " + shell_quote(db.string()), tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("set_000 wall, rho 8, tile 0.5 x 0.5 x 0.5 rc"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("set_001 fluid, rho 6.5"), std::string::npos) << r.out;
+  r = run_command(rockprep() + " tiles check " + shell_quote(db.string()) + " --json", tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["pass"].get<bool>());
+  ASSERT_EQ(j["sets"].size(), 2u);
+  for (const auto& s : j["sets"]) {
+    EXPECT_EQ(s["tiles"], 512);
+    // Acceptance: density within 1%, temperature within 2% (tiny boxes, short runs).
+    EXPECT_NEAR(s["measured_density"].get<double>() / s["density"].get<double>(), 1.0, 0.01);
+    EXPECT_NEAR(s["temperature"].get<double>(), 1.0, 0.02);
+    EXPECT_EQ(s["build"]["mesorock_version"].get<std::string>().empty(), false);
+    EXPECT_TRUE(s["check"]["pass"].get<bool>());
+  }
+  // A damaged set fails the check with exit code 1.
+  tiledb::TileDatabase d = tiledb::read_tile_database(db);
+  d.sets[0].key.density = 8.5;  // the tiles have 8: 6% off
+  const fs::path bad = tmp / "bad.h5";
+  tiledb::write_tile_database(bad, d);
+  r = run_command(rockprep() + " tiles check " + shell_quote(bad.string()), tmp.path());
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.out.find("FAIL"), std::string::npos) << r.out;
+  // Not a database: exit code 2, one line naming the file.
+  std::ofstream(tmp / "junk.h5") << "junk";
+  r = run_command(rockprep() + " tiles list " + shell_quote((tmp / "junk.h5").string()),
+                  tmp.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("junk.h5"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+// A 12 x 16 x 20 voxel synthetic shale whose pores join the x faces (seed 3).
+void make_stack(const TempDir& tmp) {
+  const CommandResult r = run_command(
+      "cd " + shell_quote(tmp.path().string()) + " && " + rockprep() +
+          " synth --shape 12,16,20 --spacing 1,1,1 --unit nm --porosity 0.35 --organic 0.5"
+          " --blob 5 --pore-radius 2.5 --matrix-pores 0.5 --noise 10 --seed 3 --quiet --out syn",
+      tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+}
+
+TEST(PackingCli, RunWritesParticlesAndASceneThatRockflowRuns) {
+  TempDir tmp;
+  make_stack(tmp);
+  const std::string cd = "cd " + shell_quote(tmp.path().string()) + " && ";
+  CommandResult r = run_command(
+      cd + rockprep() + " run syn/truth.mhd --rc-per-voxel 0.5 --tiles " +
+          shell_quote(small_db().string()) +
+          " --relax-steps 10 --settle-steps 20 --flood-steps 20 --region-every 10 --lammps"
+          " --seed 5 --out setup",
+      tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("rockprep: summary: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("peak memory"), std::string::npos) << r.out;
+  for (const char* f :
+       {"particles.h5", "particles.xmf", "particles.data", "scene.toml", "tiles.h5", "run.json"})
+    EXPECT_TRUE(fs::exists(tmp / "setup" / f)) << f;
+  const auto run = nlohmann::json::parse(mesorock::test::read_file(tmp / "setup" / "run.json"));
+  EXPECT_EQ(run["tool"], "rockprep");
+  EXPECT_EQ(run["command"], "run");
+  EXPECT_EQ(run["parameters"]["seed"], 5);
+  EXPECT_GE(run["voxels"]["spanning_clusters"].get<int>(), 1);
+  // Particles: the file holds what run.json counts, of the scene's types, inside the box.
+  sim::ParticleFileMeta meta;
+  const sim::ParticleSet p = sim::read_particle_file(tmp / "setup" / "particles.h5", &meta);
+  EXPECT_EQ(static_cast<std::int64_t>(p.size()), run["particles"]["total"].get<std::int64_t>());
+  EXPECT_EQ(meta.created_by, "rockprep run");
+  std::vector<std::int64_t> per_type(meta.type_names.size(), 0);
+  for (size_t i = 0; i < p.size(); ++i) {
+    ++per_type[static_cast<size_t>(p.type[i])];
+    ASSERT_GE(p.x[i], meta.box.lo[0]);
+    ASSERT_LT(p.x[i], meta.box.hi[0]);
+  }
+  for (size_t t = 0; t < meta.type_names.size(); ++t)
+    EXPECT_EQ(per_type[t], run["particles"]["by_type"][meta.type_names[t]].get<std::int64_t>())
+        << meta.type_names[t];
+  // Every role's count within 3 standard deviations of voxels x voxel volume x density.
+  for (const auto& role : run["particles"]["by_role"]) {
+    const double n = role["particles"].get<double>(), e = role["expected"].get<double>(),
+                 s = role["standard_deviation"].get<double>();
+    EXPECT_LE(std::abs(n - e), 3 * s + 1e-9) << role.dump();
+  }
+  // The scene reads as written and names the particle file.
+  const pipeline::Scene scene = pipeline::load_scene(tmp / "setup" / "scene.toml");
+  EXPECT_EQ(scene.model.rigid_slabs.size(), 2u);
+  EXPECT_EQ(scene.model.virtual_walls.size(), 2u);
+  EXPECT_TRUE(scene.model.wall_model.enabled);
+  EXPECT_NEAR(scene.model.wall_model.wall_density, 8.0, 1e-9);
+  ASSERT_EQ(scene.output.regions.size(), 3u);
+  EXPECT_EQ(scene.output.regions[0].saturation_of, "source");
+  EXPECT_DOUBLE_EQ(scene.units.nm_per_rc, 2.0);  // 1 nm voxels at 0.5 rc per voxel
+  // rockflow runs it as is.
+  r = run_command(
+      cd + shell_quote(MESOROCK_ROCKFLOW) + " run setup/scene.toml --out flood --threads 1",
+      tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string sat = mesorock::test::read_file(tmp / "flood" / "saturation.csv");
+  EXPECT_NE(sat.find("\n50,"), std::string::npos) << sat;  // steps 0 .. 50 every 10
+  EXPECT_TRUE(fs::exists(tmp / "flood" / "slabs.csv"));
+  // The LAMMPS file has every particle.
+  const std::string data = mesorock::test::read_file(tmp / "setup" / "particles.data");
+  EXPECT_NE(data.find(std::to_string(p.size()) + " atoms\n"), std::string::npos);
+  // Same seed and tiles: the same particles.
+  r = run_command(cd + rockprep() + " run syn/truth.mhd --rc-per-voxel 0.5 --tiles " +
+                      shell_quote(small_db().string()) + " --seed 5 --quiet --out again",
+                  tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const sim::ParticleSet q = sim::read_particle_file(tmp / "again" / "particles.h5");
+  EXPECT_EQ(q.x, p.x);
+  EXPECT_EQ(q.vx, p.vx);
+}
+
+TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
+  TempDir tmp;
+  make_stack(tmp);
+  {
+    // Solid with a closed pore: nothing joins the inlet and outlet faces.
+    std::string v(512, '\3');
+    for (int k : {4 * 64 + 4 * 8 + 3, 4 * 64 + 4 * 8 + 4}) v[static_cast<size_t>(k)] = '\1';
+    std::ofstream(tmp / "closed.raw", std::ios::binary) << v;
+  }
+  const std::string cd = "cd " + shell_quote(tmp.path().string()) + " && " + rockprep();
+  struct Case {
+    std::string args, message;
+  };
+  const std::vector<Case> cases = {
+      {"run syn/truth.mhd --out o", "length scale"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --nm-per-rc 2 --out o", "length scale"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --max-particles 100 --tiles " +
+           shell_quote(small_db().string()) + " --out o",
+       "max-particles"},
+      {"run closed.raw --shape 8,8,8 --dtype uint8 --labels 1=pore,3=inorganic --rc-per-voxel "
+       "0.5 --tiles " +
+           shell_quote(small_db().string()) + " --out o",
+       "no pore cluster joins"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --wall-thickness-rc 0.5 --out o", "thickness"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --crop 0:5,0:5,0:50 --out o", "syn/truth.mhd"},
+      {"run syn/grey --rc-per-voxel 0.5 --out o", "not a phase-label volume"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --tiles syn/truth.raw --out o", "truth.raw"},
+  };
+  for (const Case& c : cases) {
+    const CommandResult r = run_command(cd + " " + c.args, tmp.path());
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << c.args << "\n" << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(tmp / "o")) << c.args;
+    EXPECT_FALSE(fs::exists(tmp / ".o.partial")) << c.args;
+  }
+}
+
+}  // namespace
+}  // namespace mesorock::packing
