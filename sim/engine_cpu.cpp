@@ -71,6 +71,13 @@ class CpuEngine final : public Engine<Real> {
       slab_set_force(s_->slab_bodies[k], slab_pair_force(static_cast<int>(k)));
   }
 
+  void restore(HostState<Real>& host, std::uint64_t wall_corrections) override {
+    s_ = &host;
+    corrected_ = wall_corrections;
+    ThreadScope scope(threads_);
+    sorter_.sort(*s_);  // the saved storage is already sorted (stable sort: no particle moves)
+  }
+
   void advance(std::uint64_t steps) override {
     ThreadScope scope(threads_);
     for (std::uint64_t k = 0; k < steps; ++k) {

@@ -7,6 +7,7 @@
 #include "mesorock/errors.h"
 #include "sim/engine_cpu.h"
 #include "sim/state.h"
+#include "sim/state_snapshot.h"
 #include "sim/terms.h"
 #include "sim/wall_model.h"
 #if defined(MESOROCK_HAVE_CUDA)
@@ -25,7 +26,9 @@ void check_finite(double v, const std::string& what) {
   if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
 }
 
-void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt) {
+// step: the step the particles are at (a virtual wall that was lifted before it checks nothing).
+void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt,
+              std::uint64_t step = 0) {
   if (m.ntypes() < 1) throw ConfigError("model has no particle types");
   if (m.ntypes() > 32) throw ConfigError("at most 32 particle types are supported");
   if (m.pairs.size() != static_cast<size_t>(m.ntypes() * m.ntypes()))
@@ -144,7 +147,7 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
     }
     for (size_t k = 0; k < m.virtual_walls.size(); ++k) {
       const VirtualWallSpec& w = m.virtual_walls[k];
-      if (w.until_step == 0 || !((w.types >> p.type[i]) & 1u)) continue;
+      if (w.until_step <= step || !((w.types >> p.type[i]) & 1u)) continue;
       const double d = c[w.axis] - w.position;
       if (w.keep_below ? d >= 0 : d < 0) {
         std::ostringstream s;
@@ -158,9 +161,10 @@ void validate(const Model& m, const BoxSpec& box, const ParticleSet& p, double d
 template <class Real>
 class SimulationImpl final : public Simulation {
  public:
+  // resume: a saved state of a run of this model (else the run starts from p at step 0).
   SimulationImpl(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
-                 const SimulationOptions& opt)
-      : model_(model), box_(box), dt_(dt) {
+                 const SimulationOptions& opt, const SimulationState* resume = nullptr)
+      : model_(model), box_(box), dt_(dt), on_run_(opt.on_run) {
     if (opt.cells_per_cutoff < 1 || opt.cells_per_cutoff > 4)
       throw ConfigError("cells per cutoff must be 1 to 4 (got " +
                         std::to_string(opt.cells_per_cutoff) + ")");
@@ -282,7 +286,12 @@ class SimulationImpl final : public Simulation {
       throw DeviceError(cuda_unavailable_reason());
 #endif
     }
-    engine_->initialize(s);
+    if (resume) {
+      load_state(s, *resume);
+      engine_->restore(s, resume->wall_corrections);
+    } else {
+      engine_->initialize(s);
+    }
     // The initial forces may live only on the device: the next read downloads them.
     host_current_ = false;
   }
@@ -290,6 +299,7 @@ class SimulationImpl final : public Simulation {
   void run(std::uint64_t steps) override {
     engine_->advance(steps);
     host_current_ = false;
+    if (on_run_) on_run_(steps, size());
   }
   void set_dt(double dt) override {
     if (!(dt > 0) || !std::isfinite(dt)) throw ConfigError("dt must be a positive number");
@@ -439,6 +449,13 @@ class SimulationImpl final : public Simulation {
   std::string profile_report() const override {
     return engine_->profile_report();
   }
+  SimulationState state() override {
+    sync();
+    SimulationState out = save_state(state_);
+    out.dt = dt_;
+    out.wall_corrections = engine_->wall_corrections();
+    return out;
+  }
 
  private:
   // Storage is sorted by cell; callers see particles in the order they were given.
@@ -464,6 +481,7 @@ class SimulationImpl final : public Simulation {
   std::unique_ptr<Engine<Real>> engine_;
   std::string pass_name_;
   bool host_current_ = false;
+  std::function<void(std::uint64_t, std::size_t)> on_run_;
 };
 
 }  // namespace
@@ -479,6 +497,22 @@ std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& b
   if (model.precision == Precision::Single)
     return std::make_unique<SimulationImpl<float>>(model, box, particles, dt, options);
   return std::make_unique<SimulationImpl<double>>(model, box, particles, dt, options);
+}
+
+std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec& box,
+                                              const SimulationState& state,
+                                              const SimulationOptions& options) {
+  state.check();
+  validate(model, box, state.particles(), state.dt, state.step);
+  if (options.backend == BackendKind::CUDA) {
+    const std::string why = cuda_unavailable_reason();
+    if (!why.empty()) throw DeviceError(why);
+  }
+  if (model.precision == Precision::Single)
+    return std::make_unique<SimulationImpl<float>>(model, box, state.particles(), state.dt, options,
+                                                   &state);
+  return std::make_unique<SimulationImpl<double>>(model, box, state.particles(), state.dt, options,
+                                                  &state);
 }
 
 #if !defined(MESOROCK_HAVE_CUDA)

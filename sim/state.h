@@ -99,6 +99,9 @@ class Engine {
   virtual const char* name() const = 0;
   // Takes the host state as the initial condition and computes the forces of step `host.step`.
   virtual void initialize(HostState<Real>& host) = 0;
+  // Takes a saved host state (cell-sorted, with the forces, densities and slab forces of step
+  // `host.step` already in it) and continues from it: builds the cell list, computes nothing.
+  virtual void restore(HostState<Real>& host, std::uint64_t wall_corrections) = 0;
   virtual void advance(std::uint64_t steps) = 0;
   virtual void set_dt(Real dt) = 0;
   // Brings host positions, velocities, forces and densities up to date.

@@ -19,6 +19,7 @@
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
+#include "pipeline/flow/wall_liquid.h"
 #include "sim/init.h"
 #include "sim/observables.h"
 
@@ -28,47 +29,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// The bulk liquid of the viscosity case: A = -40, B = 25, rd = 0.75, gamma = 4.5, rho = 7.
-constexpr double kA = -40, kB = 25, kRd = 0.75, kGamma = 4.5, kRho = 7.0;
-
-// Shear viscosity of that liquid from the `viscosity` case at full size (H100, 2026-11-23,
-// docs/validation.md): pooled over three forcings, 6.97 +- 0.057.
-constexpr double kBulkViscosity = 6.97, kBulkViscosityError = 0.057;
-
-// Depth below the pore surface (> 0 inside the solid, <= 0 in the pore) of a point.
-using SolidDepth = std::function<double(double x, double y, double z)>;
-
-// Equilibrates the liquid in a periodic box, then keeps particles in the pore (depth <= 0) as
-// fluid and those with 0 < depth <= thickness as frozen wall; deeper ones are dropped. Types:
-// 0 fluid, 1 wall; every pair has the liquid's parameters; the wall model is on.
-BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
-                              const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
-                              std::uint64_t seed, const ValidateOptions& o) {
-  BuiltSystem bulk = make_bulk_mdpd(kA, kB, kRd, kGamma, kRho, L, seed, o.density_kernel);
-  {
-    auto sim = sim::make_simulation(bulk.model, bulk.box, bulk.particles, 0.01, o.sim);
-    sim->run(equilibrate);
-    bulk.particles = sim->particles();
-  }
-  BuiltSystem s;
-  s.model = bulk.model;
-  s.model.add_type({"wall", true, {0, 0, 0}});
-  for (int a = 0; a < 2; ++a)
-    for (int b = 0; b < 2; ++b) s.model.set_pair(a, b, {kA, kB, kGamma});
-  s.model.wall_model.enabled = true;
-  s.model.wall_model.wall_density = kRho;  // the frozen liquid keeps the liquid's density
-  s.box = bulk.box;
-  s.box.periodic = periodic;
-  const sim::ParticleSet& p = bulk.particles;
-  for (size_t i = 0; i < p.size(); ++i) {
-    const double d = depth(p.x[i], p.y[i], p.z[i]);
-    if (d > thickness) continue;
-    const bool wall = d > 0;
-    s.particles.add(p.x[i], p.y[i], p.z[i], wall ? 0 : p.vx[i], wall ? 0 : p.vy[i],
-                    wall ? 0 : p.vz[i], wall ? 1 : 0, p.id[i]);
-  }
-  return s;
-}
+using namespace wall_liquid;
 
 // --------------------------------------------------------------------------------------------
 // poiseuille-walls: body-force flow between two flat walls (surfaces at z = w and z = Lz - w).

@@ -252,6 +252,20 @@ class CudaEngine final : public Engine<Real> {
   const char* name() const override { return "cuda"; }
 
   void initialize(HostState<Real>& host) override {
+    upload(host);
+    compute_forces();
+    if (nslabs_ > 0) slab_forces(false);
+    check(cudaDeviceSynchronize(), "initial forces");
+  }
+
+  void restore(HostState<Real>& host, std::uint64_t wall_corrections) override {
+    upload(host);
+    corrected_ = wall_corrections;
+    sort_by_cell();  // the saved storage is already sorted (stable sort: no particle moves)
+    check(cudaDeviceSynchronize(), "restore");
+  }
+
+  void upload(HostState<Real>& host) {
     host_ = &host;
     const int n = host.size();
     n_ = n;
@@ -290,9 +304,6 @@ class CudaEngine final : public Engine<Real> {
       slab_velocity_.upload(host.slab_velocity);
       slab_partials_.resize(static_cast<size_t>(nslabs_) * blocks_for(n));
     }
-    compute_forces();
-    if (nslabs_ > 0) slab_forces(false);
-    check(cudaDeviceSynchronize(), "initial forces");
   }
 
   // The slabs' total forces from the last force pass, then (kick) their second half kick.
