@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -13,6 +14,8 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
+#include "pipeline/flow/checkpoint_io.h"
+#include "pipeline/flow/interrupt.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/statistics.h"
 #include "sim/particle_io.h"
@@ -79,7 +82,25 @@ struct ScalarSeries {
       j["stress"][kStressNames[c]] = mean_json(block_average(stress[static_cast<size_t>(c)]));
     return j;
   }
+  // For checkpoints: every series under "series.NAME".
+  std::vector<std::pair<std::string, std::vector<double>*>> named() {
+    std::vector<std::pair<std::string, std::vector<double>*>> out = {
+        {"series.temperature", &temperature},
+        {"series.pressure", &pressure},
+        {"series.pressure_conservative", &pressure_conservative}};
+    for (int c = 0; c < 6; ++c)
+      out.push_back(
+          {std::string("series.stress_") + kStressNames[c], &stress[static_cast<size_t>(c)]});
+    return out;
+  }
 };
+
+std::string read_whole_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
 
 // A region of [[output.regions]] being sampled: one single-bin grid per counted type.
 struct RegionRun {
@@ -153,9 +174,23 @@ std::string step_name(std::uint64_t step) {
 
 void run_scene(const Scene& scene, const RunOptions& o) {
   const auto t_start = Clock::now();
-  sim::ParticleSet initial = build_initial_particles(scene);
-  if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
-  auto sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
+  const fs::path checkpoint_file = checkpoint_path(o.out_dir);
+  std::optional<ResumePoint> resume;
+  std::unique_ptr<sim::Simulation> sim;
+  if (o.resume) {
+    if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
+    resume = read_run_checkpoint(checkpoint_file, scene);
+    sim = sim::resume_simulation(scene.model, scene.box, resume->state, o.sim);
+  } else {
+    if (fs::exists(checkpoint_file))
+      throw ConfigError(checkpoint_file.string() +
+                        ": an interrupted run's checkpoint is here: continue it with --resume, or "
+                        "remove it (or choose another --out) to start afresh");
+    sim::ParticleSet initial = build_initial_particles(scene);
+    if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
+    sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
+  }
+  const std::uint64_t checkpoint_every = o.checkpoint_every.value_or(scene.output.checkpoint_every);
 
   std::error_code ec;
   fs::create_directories(o.out_dir, ec);
@@ -164,7 +199,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (o.progress)
     std::cerr << "rockflow: " << scene.path.string() << ": " << sim->size() << " particles, "
               << sim->pass_name() << ", backend " << sim->backend_name() << ", "
-              << sim::to_string(scene.model.precision) << " precision\n";
+              << sim::to_string(scene.model.precision) << " precision"
+              << (resume ? ", resumed at step " + std::to_string(sim->step()) : std::string())
+              << "\n";
 
   const nlohmann::json provenance = {{"scene", scene.path.string()},
                                      {"seed", scene.model.seed},
@@ -185,9 +222,14 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (thermo_every > 0) {
     thermo.open(thermo_tmp);
     if (!thermo) throw IoError(thermo_path.string() + ": cannot open for writing");
-    thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene " << scene.path.string()
-           << ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per volume\n";
-    thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz\n";
+    if (resume) {
+      thermo << resume->record.text("thermo.csv");  // the rows so far, header included
+    } else {
+      thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+             << scene.path.string()
+             << ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per volume\n";
+      thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz\n";
+    }
     thermo << std::setprecision(10);
   }
   // regions.csv and saturation.csv grow like thermo.csv, under temporary names.
@@ -200,20 +242,28 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (!regions.empty()) {
     region_rows.open(temporary_path_for(regions_path));
     if (!region_rows) throw IoError(regions_path.string() + ": cannot open for writing");
-    region_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                << scene.path.string()
-                << ", reduced units; flow_rate_a = sum v_a / L_a over the region (m = 1)\n";
-    region_rows << "step,time,stage,region,type,count,number_density,flow_rate_x,flow_rate_y,"
-                   "flow_rate_z\n";
+    if (resume) {
+      region_rows << resume->record.text("regions.csv");
+    } else {
+      region_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                  << scene.path.string()
+                  << ", reduced units; flow_rate_a = sum v_a / L_a over the region (m = 1)\n";
+      region_rows << "step,time,stage,region,type,count,number_density,flow_rate_x,flow_rate_y,"
+                     "flow_rate_z\n";
+    }
     region_rows << std::setprecision(10);
     if (any_saturation) {
       saturation_rows.open(temporary_path_for(saturation_path));
       if (!saturation_rows) throw IoError(saturation_path.string() + ": cannot open for writing");
-      saturation_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                      << scene.path.string()
-                      << ": saturation = share of the saturation_of type among the region's "
-                         "counted types; recovery = 1 - saturation\n";
-      saturation_rows << "step,time,stage,region,saturation,recovery,counted\n";
+      if (resume) {
+        saturation_rows << resume->record.text("saturation.csv");
+      } else {
+        saturation_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                        << scene.path.string()
+                        << ": saturation = share of the saturation_of type among the region's "
+                           "counted types; recovery = 1 - saturation\n";
+        saturation_rows << "step,time,stage,region,saturation,recovery,counted\n";
+      }
       saturation_rows << std::setprecision(10);
     }
   }
@@ -223,11 +273,15 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (!scene.model.rigid_slabs.empty() && thermo_every > 0) {
     slab_rows.open(temporary_path_for(slabs_path));
     if (!slab_rows) throw IoError(slabs_path.string() + ": cannot open for writing");
-    slab_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-              << scene.path.string()
-              << ": rigid slabs; position = mean coordinate of the slab's particles along its "
-                 "axis; force = pair forces + applied (pressure x cross-section)\n";
-    slab_rows << "step,time,stage,slab,axis,position,velocity,force,applied_force\n";
+    if (resume) {
+      slab_rows << resume->record.text("slabs.csv");
+    } else {
+      slab_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                << scene.path.string()
+                << ": rigid slabs; position = mean coordinate of the slab's particles along its "
+                   "axis; force = pair forces + applied (pressure x cross-section)\n";
+      slab_rows << "step,time,stage,slab,axis,position,velocity,force,applied_force\n";
+    }
     slab_rows << std::setprecision(10);
   }
   auto write_slab_rows = [&](std::uint64_t step, double t, const std::string& stage) {
@@ -243,16 +297,55 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   ScalarSeries series;
 
   double time = 0;
+  double earlier_run_seconds = 0;  // spent before the checkpoint this run resumed from
+  if (resume) {
+    const RunRecord& rec = resume->record;
+    time = rec.number("time");
+    earlier_run_seconds = rec.number("run_seconds");
+    for (auto& [name, v] : series.named()) *v = rec.series(name);
+    for (auto& b : binned) rec.get_binned("binned." + b.spec.name, b.average);
+    const nlohmann::json last = nlohmann::json::parse(rec.text("regions.last"));
+    for (size_t k = 0; k < regions.size() && k < last.size(); ++k) regions[k].last = last[k];
+  }
+  nlohmann::json parameters = {{"provenance", provenance}, {"threads", o.sim.threads}};
+  parameters["checkpoint_every"] = checkpoint_every;
   std::uint64_t total_steps = 0;
   const auto t_run = Clock::now();
+  // Everything the outputs need to continue from this step (all outputs of it are written).
+  auto save_checkpoint = [&]() {
+    RunRecord rec;
+    for (auto [stream, name] :
+         {std::pair{&thermo, thermo_path}, std::pair{&region_rows, regions_path},
+          std::pair{&saturation_rows, saturation_path}, std::pair{&slab_rows, slabs_path}}) {
+      if (!stream->is_open()) continue;
+      stream->flush();
+      if (!*stream) throw IoError(name.string() + ": write failed");
+      rec.texts[name.filename().string()] = read_whole_file(temporary_path_for(name));
+    }
+    rec.numbers["time"] = {time};
+    rec.numbers["run_seconds"] = {earlier_run_seconds +
+                                  std::chrono::duration<double>(Clock::now() - t_run).count()};
+    for (auto& [name, v] : series.named()) rec.numbers[name] = *v;
+    for (const auto& b : binned) rec.put_binned("binned." + b.spec.name, b.average);
+    nlohmann::json last = nlohmann::json::array();
+    for (const auto& r : regions) last.push_back(r.last);
+    rec.texts["regions.last"] = last.dump();
+    write_run_checkpoint(checkpoint_file, *sim, scene, parameters.dump(), rec);
+  };
+  // Steps of a stage begin at this step; its time at this time (resume skips what was done).
+  const std::uint64_t start_step = sim->step();
+  std::uint64_t stage_begin = 0;
+  double stage_time = 0;
   try {
-    if (!regions.empty())
+    if (!regions.empty() && !resume)
       sample_regions(*sim, scene, regions, sim->step(), time, scene.stages.front().name,
                      region_rows, saturation_rows);
     for (const auto& stage : scene.stages) {
       sim->set_dt(stage.dt);
       const bool averaged = stage_is_averaged(scene, stage.name);
-      std::uint64_t done = 0;
+      std::uint64_t done =
+          start_step > stage_begin ? std::min(stage.steps, start_step - stage_begin) : 0;
+      const std::uint64_t done_before = done;
       const auto t_stage = Clock::now();
       // Progress about every hundredth of the stage; outputs at their own multiples of the step.
       const std::uint64_t progress_every = std::max<std::uint64_t>(1, stage.steps / 100);
@@ -267,9 +360,12 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         if (averaged)
           for (const auto& b : binned) until_next(b.spec.every);
         for (const auto& r : regions) until_next(r.spec->every);
+        until_next(checkpoint_every);
+        n = std::min<std::uint64_t>(n, 1000);  // Ctrl-C is answered between chunks
         sim->run(n);
         done += n;
-        time += static_cast<double>(n) * stage.dt;
+        // From the stage's start, so that the time does not depend on how the stage was chunked.
+        time = stage_time + static_cast<double>(done) * stage.dt;
         const std::uint64_t now = sim->step();
         if (thermo_every > 0 && now % thermo_every == 0) {
           const double T = sim->kinetic_temperature();
@@ -300,10 +396,20 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           for (auto& b : binned)
             if (now % b.spec.every == 0) b.average.add(sim->bin_sums(b.average.grid()));
         sample_regions(*sim, scene, regions, now, time, stage.name, region_rows, saturation_rows);
+        const int signal = interrupt_requested();
+        if (signal || (checkpoint_every > 0 && now % checkpoint_every == 0)) save_checkpoint();
+        if (signal) {
+          if (o.progress && isatty(STDERR_FILENO)) std::cerr << "\n";
+          throw Interrupted(std::string(signal == SIGINT ? "Ctrl-C" : "SIGTERM") + " at step " +
+                            std::to_string(now) + "; checkpoint written to " +
+                            checkpoint_file.string() + "; continue with: rockflow run " +
+                            scene.path.string() + " --out " + o.out_dir.string() + " --resume");
+        }
         if (o.progress) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
-          const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;
-          const double eta = done > 0 ? el * static_cast<double>(stage.steps - done) / done : 0;
+          const std::uint64_t here = done - done_before;  // steps run in this session
+          const double rate = el > 0 ? sim->size() * static_cast<double>(here) / el / 1e6 : 0;
+          const double eta = here > 0 ? el * static_cast<double>(stage.steps - done) / here : 0;
           // On a terminal one line is redrawn; in a log, a line per tenth of the stage.
           const bool tty = isatty(STDERR_FILENO);
           const std::uint64_t tenth = std::max<std::uint64_t>(1, stage.steps / 10);
@@ -315,7 +421,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         }
       }
       total_steps += stage.steps;
-      if (o.progress && isatty(STDERR_FILENO)) std::cerr << "\n";
+      stage_begin += stage.steps;
+      stage_time += static_cast<double>(stage.steps) * stage.dt;
+      if (o.progress && isatty(STDERR_FILENO) && done > done_before) std::cerr << "\n";
     }
   } catch (...) {
     thermo.close();
@@ -328,7 +436,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     fs::remove(temporary_path_for(saturation_path), ec);
     throw;
   }
-  const double run_seconds = std::chrono::duration<double>(Clock::now() - t_run).count();
+  const double run_seconds =
+      earlier_run_seconds + std::chrono::duration<double>(Clock::now() - t_run).count();
   if (thermo.is_open()) {
     thermo.close();
     fs::rename(thermo_tmp, thermo_path, ec);
@@ -418,7 +527,11 @@ void run_scene(const Scene& scene, const RunOptions& o) {
                         {"max_dissipation_factor", w.max_dissipation_factor},
                         {"corrections", sim->wall_corrections()}};
   }
+  if (resume) summary["resumed_from_step"] = resume->state.step;
+  if (checkpoint_every > 0) summary["checkpoint_every"] = checkpoint_every;
   write_text_atomically(o.out_dir / "summary.json", summary.dump(2) + "\n");
+  // The run is complete: its outputs hold the final state, and the checkpoint is spent.
+  fs::remove(checkpoint_file, ec);
   if (o.progress)
     std::cerr << "rockflow: done: " << total_steps << " steps in " << std::setprecision(3)
               << run_seconds << " s; outputs in " << o.out_dir.string()
