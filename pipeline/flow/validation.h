@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/flow/progress.h"
 #include "sim/model.h"
 #include "sim/simulation.h"
 
@@ -84,7 +85,9 @@ struct ValidateOptions {
 // Small helpers the case files share: a progress line on stderr when verbose, a number with
 // `precision` significant digits, and the seconds since t0.
 inline void progress(const ValidateOptions& o, const std::string& what) {
-  if (o.verbose) std::cerr << what << std::endl;
+  if (!o.verbose) return;
+  clear_progress_line(std::cerr);  // a redrawn progress meter line (pipeline/flow/progress.h)
+  std::cerr << what << std::endl;
 }
 inline std::string fmt(double v, int precision = 4) {
   std::ostringstream s;
@@ -99,6 +102,9 @@ struct ValidationCase {
   std::string name;
   std::string summary;
   std::function<CaseResult(const ValidateOptions&)> run;
+  // Work in million particle-steps at the small and full sizes, for the progress meter's ETA
+  // (0 = not known: the meter shows elapsed time and MPS/s only).
+  double work_small = 0, work_full = 0;
 };
 
 const std::vector<ValidationCase>& validation_cases();
@@ -111,6 +117,11 @@ CaseResult run_no_penetration_case(const ValidateOptions& o);
 // The two-fluid cases (validation_two_fluid.cpp).
 CaseResult run_interfacial_tension_case(const ValidateOptions& o);
 CaseResult run_contact_angle_case(const ValidateOptions& o);
+// The permeability cases (validation_permeability.cpp).
+CaseResult run_perm_slit_case(const ValidateOptions& o);
+CaseResult run_perm_tube_case(const ValidateOptions& o);
+CaseResult run_perm_sphere_array_case(const ValidateOptions& o);
+CaseResult run_darcy_linearity_case(const ValidateOptions& o);
 const ValidationCase* find_validation_case(const std::string& name);
 
 // Text table and the JSON object of the --json flag.
