@@ -58,6 +58,17 @@ constexpr double kSlipLength = -0.069, kSlipLengthError = 0.010;
 constexpr double kWallThickness = 1.5;  // as in poiseuille-walls: more than rc of frozen liquid
 constexpr double kTolerance = 0.10;     // the issue: within 10%
 
+// 10% of the reference; at the small size widened by two standard errors of the measurement
+// (as poiseuille-walls does), because a CI-sized run's own statistical error (2-4%) is then a
+// sizeable part of the 10%. The full size is judged at 10% alone.
+double tolerance(const ValidateOptions& o, double reference, double error) {
+  return kTolerance * reference + (o.size == CaseSize::Small ? 2 * error : 0.0);
+}
+std::string tolerance_text(const ValidateOptions& o) {
+  return o.size == CaseSize::Small ? "issue: within 10% (+ 2 sigma at the small size)"
+                                   : "issue: within 10%";
+}
+
 struct FlowRun {
   std::size_t fluid = 0;
   double g = 0;
@@ -189,14 +200,18 @@ CaseResult run_perm_slit(const ValidateOptions& o) {
   const double area = L[0] * L[1];
   const Permeability k = permeability_of(f, area * h, area * h_eff, area * L[2]);
   const double reference = h_eff * h_eff / 12;
-  r.quantities.push_back(judged(
-      "pore permeability k_pore (rc^2)", k.pore, k.pore_error, reference, kTolerance * reference,
-      "slit Poiseuille flow: k = h^2/12 with h = h_eff = h_cut + 2b = " + fmt(h_eff, 4) +
-          " (b = -0.069, poiseuille-walls); issue: within 10%"));
+  r.quantities.push_back(
+      judged("pore permeability k_pore (rc^2)", k.pore, k.pore_error, reference,
+             tolerance(o, reference, k.pore_error),
+             "slit Poiseuille flow: k = h^2/12 with h = h_eff = h_cut + 2b = " + fmt(h_eff, 4) +
+                 " (b = -0.069, poiseuille-walls); " + tolerance_text(o)));
   r.notes.push_back(resolution_note("resolution: slit width h_cut", h) +
                     "; k_pore/reference = " + fmt(k.pore / reference, 4) +
                     "; with the cut surface h^2/12 = " + fmt(h * h / 12, 4) + " (ratio " +
-                    fmt(k.pore / (h * h / 12), 4) + ")");
+                    fmt(k.pore / (h * h / 12), 4) + "); the measured Darcy k = h^3 / (12 Lz) " +
+                    "puts the no-slip surfaces " +
+                    fmt(0.5 * (std::cbrt(12 * L[2] * k.darcy) - h), 2) +
+                    " rc from the cut (negative: in the fluid)");
   r.notes.push_back(flow_note(f, k));
   return r;
 }
@@ -233,15 +248,19 @@ CaseResult run_perm_tube(const ValidateOptions& o) {
   const double pore_area = M_PI * R_eff * R_eff;
   const Permeability k = permeability_of(f, M_PI * R * R * Lz, pore_area * Lz, Lxy * Lxy * Lz);
   const double reference = R_eff * R_eff / 8;
-  r.quantities.push_back(judged(
-      "pore permeability k_pore (rc^2)", k.pore, k.pore_error, reference, kTolerance * reference,
-      "Hagen-Poiseuille: k = R^2/8 over the pore area pi R^2, R = R_eff = R_cut - s + b = " +
-          fmt(R_eff, 4) + " (wall-model surface s = " + fmt(surface, 2) +
-          ", slip b = -0.069 from poiseuille-walls); issue: within 10%"));
+  r.quantities.push_back(
+      judged("pore permeability k_pore (rc^2)", k.pore, k.pore_error, reference,
+             tolerance(o, reference, k.pore_error),
+             "Hagen-Poiseuille: k = R^2/8 over the pore area pi R^2, R = R_eff = R_cut - s + b = " +
+                 fmt(R_eff, 4) + " (wall-model surface s = " + fmt(surface, 2) +
+                 ", slip b = -0.069 from poiseuille-walls); " + tolerance_text(o)));
   r.notes.push_back(resolution_note("resolution: tube radius R_cut", R) +
                     "; k_pore/reference = " + fmt(k.pore / reference, 4) +
                     "; with the cut surface R^2/8 = " + fmt(R * R / 8, 4) + " (ratio " +
-                    fmt(k.pore / (R * R / 8), 4) + ")");
+                    fmt(k.pore / (R * R / 8), 4) + "); the measured Darcy k = pi R^4 / (8 A) " +
+                    "puts the no-slip surface " +
+                    fmt(std::pow(8 * Lxy * Lxy * k.darcy / M_PI, 0.25) - R, 2) +
+                    " rc from the cut (negative: in the fluid)");
   r.notes.push_back(flow_note(f, k));
   return r;
 }
@@ -293,19 +312,32 @@ CaseResult run_perm_sphere_array(const ValidateOptions& o) {
   const double total = std::pow(Ledge, 3);
   const Permeability k =
       permeability_of(f, total - 4 * M_PI * a * a * a / 3, total * (1 - kSolidFraction), total);
-  r.quantities.push_back(judged(
-      "Darcy permeability k (rc^2)", k.darcy, k.darcy_error, reference, kTolerance * reference,
-      "Zick & Homsy 1982 Table 2, simple cubic, c = 0.125: K = 4.292, k = L^3 / (6 pi a "
-      "K), a = a_eff = a_cut + s - b = " +
-          fmt(a_eff, 4) + " (s = " + fmt(surface, 2) + ", b = -0.069), L = " + fmt(Ledge, 4) +
-          "; issue: within 10%"));
+  r.quantities.push_back(
+      judged("Darcy permeability k (rc^2)", k.darcy, k.darcy_error, reference,
+             tolerance(o, reference, k.darcy_error),
+             "Zick & Homsy 1982 Table 2, simple cubic, c = 0.125: K = 4.292, k = L^3 / (6 pi a "
+             "K), a = a_eff = a_cut + s - b = " +
+                 fmt(a_eff, 4) + " (s = " + fmt(surface, 2) +
+                 ", b = -0.069), L = " + fmt(Ledge, 4) + "; " + tolerance_text(o)));
   const double c_cut = 4 * M_PI * a * a * a / (3 * total);
+  // The sphere radius whose Zick & Homsy permeability in this cell is the measured one.
+  auto k_of_radius = [&](double radius) {
+    return total / (6 * M_PI * radius * zick_homsy_K(4 * M_PI * std::pow(radius, 3) / (3 * total)));
+  };
+  double lo = a - 1, hi = a + 1;
+  for (int it = 0; it < 60; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (k_of_radius(mid) > k.darcy ? lo : hi) = mid;  // k falls as the sphere grows
+  }
+  const double implied = 0.5 * (lo + hi);
   r.notes.push_back(
       resolution_note("resolution: sphere radius a_cut", a) + ", cell " + fmt(Ledge, 4) +
       " rc, gap between spheres " + fmt(Ledge - 2 * a_eff, 3) + " rc; k/reference = " +
       fmt(k.darcy / reference, 4) + "; with the cut surface (c = " + fmt(c_cut, 4) +
       ") the table interpolates (log-log) to K = " + fmt(zick_homsy_K(c_cut), 4) +
-      " and k = " + fmt(std::pow(Ledge, 3) / (6 * M_PI * a * zick_homsy_K(c_cut)), 4));
+      " and k = " + fmt(std::pow(Ledge, 3) / (6 * M_PI * a * zick_homsy_K(c_cut)), 4) +
+      "; the measured k is that of a sphere of radius a_cut " + fmt(implied - a, 2) +
+      " rc (positive: the no-slip surface in the fluid)");
   r.notes.push_back(flow_note(f, k) + "; Re = n q a / mu = " +
                     fmt(kRho * k.darcy_velocity * a_eff / kBulkViscosity, 2));
   return r;

@@ -25,141 +25,13 @@ using mesorock::test::TempDir;
 
 namespace {
 
-// Fluid driven along x between a frozen wall (wall model) and a rigid slab pushing down, with a
-// virtual wall lifted at step 300, two stages with different dt, profiles, fields, a region with
-// saturation and snapshots: every output a resumed run has to continue.
-const char* kScene = R"(name = "resume"
-seed = 11
-[box]
-lo = [0.0, 0.0, 0.0]
-hi = [4.0, 4.0, 8.0]
-boundary = ["periodic", "periodic", "reflective"]
-[model]
-conservative = "mdpd"
-[[types]]
-name = "water"
-body_force = [0.05, 0.0, 0.0]
-[[types]]
-name = "oil"
-body_force = [0.05, 0.0, 0.0]
-[[types]]
-name = "wall"
-frozen = true
-[[types]]
-name = "piston"
-[[pairs]]
-types = ["water", "water"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["water", "oil"]
-A = -30.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["oil", "oil"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["water", "wall"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["oil", "wall"]
-A = -30.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["wall", "wall"]
-A = 0.0
-B = 0.0
-gamma = 0.0
-[[pairs]]
-types = ["water", "piston"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["oil", "piston"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["wall", "piston"]
-A = 0.0
-B = 0.0
-gamma = 0.0
-[[pairs]]
-types = ["piston", "piston"]
-A = 0.0
-B = 0.0
-gamma = 0.0
-[[init]]
-kind = "lattice"
-type = "wall"
-density = 8.0
-hi = [4.0, 4.0, 1.0]
-[[init]]
-kind = "random"
-type = "water"
-count = 160
-lo = [0.0, 0.0, 1.0]
-hi = [4.0, 4.0, 3.9]
-[[init]]
-kind = "random"
-type = "oil"
-count = 140
-lo = [0.0, 0.0, 4.1]
-hi = [4.0, 4.0, 6.4]
-[[init]]
-kind = "lattice"
-type = "piston"
-density = 6.0
-lo = [0.0, 0.0, 6.6]
-hi = [4.0, 4.0, 7.6]
-[walls]
-model = "li2018"
-types = ["wall"]
-[[virtual_walls]]
-axis = "z"
-position = 4.0
-types = ["water"]
-keep = "below"
-until_step = 300
-[[slabs]]
-type = "piston"
-axis = "z"
-pressure = -3.0
-[[run]]
-name = "relax"
-steps = 250
-dt = 0.005
-[[run]]
-name = "flow"
-steps = 1000
-dt = 0.01
-[output]
-thermo_every = 50
-snapshot_every = 500
-average_stages = ["relax", "flow"]
-[[output.profiles]]
-axis = "z"
-bins = 8
-every = 10
-[output.fields]
-cells = [2, 2, 4]
-every = 50
-[[output.regions]]
-name = "lower"
-lo = [0.0, 0.0, 1.0]
-hi = [4.0, 4.0, 4.0]
-every = 50
-types = ["water", "oil"]
-saturation_of = "oil"
-)";
+// The scene (tests/data/scenes/resume_all_outputs.toml): fluid driven along x between a frozen
+// wall (wall model) and a rigid slab pushing down, with a virtual wall lifted at step 300, two
+// stages with different dt, profiles, fields, a region with saturation and snapshots: every output
+// a resumed run has to continue.
+const std::string kScene = mesorock::test::read_file(fs::path(MESOROCK_SOURCE_DIR) / "tests" /
+                                                     "data" / "scenes" /
+                                                     "resume_all_outputs.toml");
 
 std::string rockflow_run(const fs::path& scene, const fs::path& out, const std::string& extra) {
   return mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
@@ -269,7 +141,8 @@ TEST_F(Resume, KilledRunResumesBitForBit) {
   EXPECT_GT(checkpoint.state.step, 0u);
   EXPECT_LT(checkpoint.state.step, 1250u);
   EXPECT_EQ(checkpoint.state.step % 100, 0u);
-  EXPECT_EQ(checkpoint.scene_text, std::string(kScene));
+  ASSERT_FALSE(kScene.empty());
+  EXPECT_EQ(checkpoint.scene_text, kScene);
 
   const CommandResult r =
       mesorock::test::run_command(rockflow_run(scene_, out, " --resume"), dir_->path());
@@ -300,7 +173,7 @@ TEST_F(Resume, CtrlCLeavesACheckpointAndExits130) {
   EXPECT_NE(fresh.err.find("--resume"), std::string::npos) << fresh.err;
   // A different scene cannot resume it.
   const fs::path other = *dir_ / "other.toml";
-  std::ofstream(other) << std::string(kScene) + "# changed\n";
+  std::ofstream(other) << kScene + "# changed\n";
   const CommandResult wrong =
       mesorock::test::run_command(rockflow_run(other, out, " --resume"), dir_->path());
   EXPECT_EQ(wrong.exit_code, 2);
