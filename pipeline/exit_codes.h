@@ -13,6 +13,7 @@ enum ExitCode : int {
   kExitFailed = 1,     // a validation quantity failed, or an unexpected internal error
   kExitBadInput = 2,   // bad usage, bad file, missing backend
   kExitNumerical = 3,  // the run blew up (NaN, runaway velocity): a diagnostic was printed
+  kExitInterrupted = 130,  // Ctrl-C or SIGTERM (128 + SIGINT, the shell's convention)
 };
 
 // Runs body(); prints "<tool>: error: <message>" on one line and returns the exit code.
@@ -32,6 +33,9 @@ int run_main(const char* tool, Body&& body) {
   } catch (const LimitError& e) {
     std::cerr << tool << ": error: " << e.what() << "\n";
     return kExitBadInput;
+  } catch (const Interrupted& e) {
+    std::cerr << tool << ": interrupted: " << e.what() << "\n";
+    return kExitInterrupted;
   } catch (const NumericalError& e) {
     std::cerr << tool << ": numerical failure: " << e.what() << "\n";
     return kExitNumerical;

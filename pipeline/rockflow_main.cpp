@@ -3,12 +3,16 @@
 
 #include <chrono>
 #include <iostream>
+#include <sstream>
 
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/bench.h"
+#include "pipeline/flow/interrupt.h"
+#include "pipeline/flow/progress.h"
 #include "pipeline/flow/run_scene.h"
+#include "pipeline/flow/sweep.h"
 #include "pipeline/flow/validation.h"
 #include "pipeline/scene.h"
 #include "sim/domain/communicator.h"
@@ -62,6 +66,13 @@ int main(int argc, char** argv) {
                     "watchdog: a particle moving more rc than this in one step is a runaway")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();
+    bool resume = false;
+    std::int64_t checkpoint_every = -1;
+    run->add_flag("--resume", resume, "continue from OUT/checkpoint.h5 (same scene)");
+    run->add_option("--checkpoint-every", checkpoint_every,
+                    "write OUT/checkpoint.h5 every N steps (default: the scene's "
+                    "[output] checkpoint_every; 0 = none)")
+        ->check(CLI::NonNegativeNumber);
 
     auto* val = app.add_subcommand("validate", "run a built-in physics validation case");
     std::string case_name, size = "small", kernel = "warren";
@@ -76,6 +87,46 @@ int main(int argc, char** argv) {
         ->check(CLI::NonNegativeNumber);
     val->add_flag("--json", json, "print one JSON object");
     val->add_option("--watchdog", watchdog, watchdog_help)->check(on_off)->capture_default_str();
+
+    auto* sweep = app.add_subcommand(
+        "sweep", "permeability sweep: flow rate vs driving force, Darcy and Forchheimer fits");
+    mp::SweepCommand sc;
+    std::string sweep_scene, sweep_out = "out", forces_text;
+    double fluid_density = 0, viscosity = 0, viscosity_error = 0;
+    std::string viscosity_cache, types_text;
+    sweep->add_option("scene", sweep_scene, "the prepared sample (scene file)")->required();
+    sweep->add_option("--out", sweep_out, "output folder")->capture_default_str();
+    sweep
+        ->add_option("--forces", forces_text,
+                     "body forces per fluid particle, comma-separated (reduced units)")
+        ->required();
+    sweep->add_option("--axis", sc.axis, "flow axis x|y|z (default: the scene's body force)");
+    sweep->add_option("--types", types_text,
+                      "driven types, comma-separated (default: the scene's body-force types)");
+    sweep->add_option("--fluid-density", fluid_density,
+                      "the fluid's number density n_f (default: the scene's [[init]] density)");
+    sweep->add_option("--viscosity", viscosity, "the fluid's viscosity (skips the calibration)");
+    sweep->add_option("--viscosity-error", viscosity_error, "its standard error");
+    sweep->add_option("--calibration", sc.calibration, "calibration size tiny|small|full")
+        ->check(CLI::IsMember({"tiny", "small", "full"}))
+        ->capture_default_str();
+    sweep->add_option("--viscosity-cache", viscosity_cache,
+                      "folder of cached calibrations (default: ~/.cache/mesorock/viscosity)");
+    sweep->add_option("--warmup", sc.run.warmup_steps, "steps before blocks start, per point")
+        ->capture_default_str();
+    sweep->add_option("--block-steps", sc.run.block_steps, "steps per averaging block")
+        ->capture_default_str();
+    sweep->add_option("--window", sc.run.window, "blocks per half of the steady-state test")
+        ->capture_default_str();
+    sweep->add_option("--tolerance", sc.run.tolerance, "steady-state tolerance (relative)")
+        ->capture_default_str();
+    sweep->add_option("--measure-blocks", sc.run.measure_blocks, "blocks measured once steady")
+        ->capture_default_str();
+    sweep->add_option("--max-steps", sc.run.max_steps, "most steps per point")
+        ->capture_default_str();
+    sweep->add_option("--backend", backend, "cpu or cuda");
+    sweep->add_option("--threads", threads, "CPU threads (0: all cores)")
+        ->check(CLI::NonNegativeNumber);
 
     auto* bench = app.add_subcommand("bench", "measure million particle-steps per second");
     mp::BenchOptions bo;
@@ -138,7 +189,56 @@ int main(int argc, char** argv) {
       ro.out_dir = out_dir;
       ro.sim = so;
       ro.sim.decomposition = scene.decomposition;
+      ro.resume = resume;
+      if (checkpoint_every >= 0) ro.checkpoint_every = static_cast<std::uint64_t>(checkpoint_every);
+      mp::install_interrupt_handlers();  // Ctrl-C: checkpoint, then exit 130
       mp::run_scene(scene, ro);
+      return mp::kExitOk;
+    }
+
+    if (*sweep) {
+      require_backend(so.backend);
+      const mp::Scene scene = mp::load_scene(sweep_scene);
+      sc.out_dir = sweep_out;
+      sc.run.sim = so;
+      auto split = [](const std::string& text) {
+        std::vector<std::string> out;
+        std::string item;
+        std::istringstream in(text);
+        while (std::getline(in, item, ','))
+          if (!item.empty()) out.push_back(item);
+        return out;
+      };
+      for (const auto& f : split(forces_text)) {
+        try {
+          size_t used = 0;
+          sc.forces.push_back(std::stod(f, &used));
+          if (used != f.size()) throw std::invalid_argument(f);
+        } catch (const std::exception&) {
+          throw mesorock::ConfigError("sweep: --forces: '" + f + "' is not a number");
+        }
+      }
+      sc.types = split(types_text);
+      if (fluid_density != 0) sc.fluid_density = fluid_density;
+      if (viscosity != 0) sc.viscosity = viscosity;
+      if (viscosity_error != 0) sc.viscosity_error = viscosity_error;
+      if (!viscosity_cache.empty()) sc.viscosity_cache = viscosity_cache;
+      const auto summary = mp::run_sweep_command(scene, sc);
+      const auto& darcy = summary["fits"]["darcy"]["permeability"];
+      std::cout << "permeability (Darcy fit): " << darcy["rc2"].get<double>() << " +- "
+                << darcy["rc2_error"].get<double>() << " rc^2";
+      if (darcy.contains("mD"))
+        std::cout << " = " << darcy["nm2"].get<double>() << " nm^2 = " << darcy["mD"].get<double>()
+                  << " mD";
+      std::cout << "\n";
+      if (summary["fits"].contains("quadratic")) {
+        const auto& q = summary["fits"]["quadratic"];
+        std::cout << "deviation from Darcy at the largest gradient: "
+                  << 100 * q["deviation_at_largest_gradient"].get<double>() << " +- "
+                  << 100 * q["deviation_error"].get<double>() << " %"
+                  << (q["deviation_significant"].get<bool>() ? " (significant)" : "") << "\n";
+      }
+      std::cout << "outputs: " << sweep_out << "/sweep.csv, sweep.json, sweep.png\n";
       return mp::kExitOk;
     }
 
@@ -158,8 +258,12 @@ int main(int argc, char** argv) {
           kernel == "lucy" ? ms::DensityKernelKind::Lucy : ms::DensityKernelKind::Warren;
       vo.sim = so;
       vo.verbose = root;
+      mp::ProgressMeter meter("validate " + case_name, std::cerr, root);
+      meter.set_total(1e6 * (vo.size == mp::CaseSize::Full ? c->work_full : c->work_small));
+      vo.sim.on_run = [&meter](std::uint64_t steps, std::size_t n) { meter.advance(steps, n); };
       const auto t0 = std::chrono::steady_clock::now();
       mp::CaseResult r = c->run(vo);
+      meter.finish(r.pass() ? "pass" : "FAIL");
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (root) std::cout << (json ? mp::format_case_json(r) + "\n" : mp::format_case_text(r));
       return r.pass() ? mp::kExitOk : mp::kExitFailed;

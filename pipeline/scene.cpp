@@ -775,9 +775,10 @@ void read_output(const Context& c, Table& top, Scene& s) {
   if (!tbl) return;
   Table t(c, *tbl, "output",
           {"thermo_every", "snapshot_every", "final_snapshot", "average_stages", "profiles",
-           "fields", "regions"});
+           "fields", "regions", "checkpoint_every"});
   for (auto [key, target] : {std::pair{"thermo_every", &s.output.thermo_every},
-                             std::pair{"snapshot_every", &s.output.snapshot_every}}) {
+                             std::pair{"snapshot_every", &s.output.snapshot_every},
+                             std::pair{"checkpoint_every", &s.output.checkpoint_every}}) {
     if (auto v = t.integer(key)) {
       if (*v < 0) fail(c, t.key(key), "must be >= 0 (got " + std::to_string(*v) + ")");
       *target = static_cast<std::uint64_t>(*v);

@@ -71,6 +71,13 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     set_slab_forces(false);
   }
 
+  void restore(HostState<Real>& host, std::uint64_t wall_corrections) override {
+    s_ = &host;
+    corrected_ = wall_corrections;
+    ThreadScope scope(threads_);
+    sort();  // the saved storage is already sorted (stable sort: no particle moves)
+  }
+
   void advance(std::uint64_t steps) override {
     ThreadScope scope(threads_);
     for (std::uint64_t k = 0; k < steps; ++k) {

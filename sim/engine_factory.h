@@ -9,9 +9,10 @@
 
 namespace mesorock::sim {
 
-// Throws ConfigError naming the first problem with the inputs.
+// Throws ConfigError naming the first problem with the inputs. step: the step the particles are at
+// (a resumed run; a virtual wall lifted before it checks nothing).
 void validate_inputs(const Model& model, const BoxSpec& box, const ParticleSet& particles,
-                     double dt);
+                     double dt, std::uint64_t step = 0);
 
 // Fills the host state (pair table, effects, box, cell grid, particles in the run's precision).
 template <class Real>

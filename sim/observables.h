@@ -124,6 +124,26 @@ class BinnedAverage {
       return s[kBinCount] > 0 ? s[kBinVx + axis] / s[kBinCount] : 0.0;
     });
   }
+  // Its accumulators and block bookkeeping, for checkpoints: restoring them into an average of
+  // the same grid continues it exactly.
+  struct Saved {
+    std::size_t max_blocks = 0, block_length = 1, in_current = 0, samples = 0;
+    std::vector<double> total, current;
+    std::vector<std::vector<double>> blocks;
+  };
+  Saved save() const {
+    return Saved{max_blocks_, block_length_, in_current_, samples_, total_, current_, blocks_};
+  }
+  void restore(const Saved& s) {
+    max_blocks_ = s.max_blocks;
+    block_length_ = s.block_length;
+    in_current_ = s.in_current;
+    samples_ = s.samples;
+    total_ = s.total;
+    current_ = s.current;
+    blocks_ = s.blocks;
+  }
+
   // Kinetic temperature relative to the bin's mean velocity (m = 1):
   // T = (1/3) sum_a (<v_a^2> - <v_a>^2).
   BinnedQuantity temperature() const {

@@ -10,6 +10,7 @@
 #include "sim/engine_cpu.h"
 #include "sim/engine_factory.h"
 #include "sim/state.h"
+#include "sim/state_snapshot.h"
 #include "sim/terms.h"
 #include "sim/wall_model.h"
 #if defined(MESOROCK_HAVE_CUDA)
@@ -30,7 +31,9 @@ void check_finite(double v, const std::string& what) {
 
 }  // namespace
 
-void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt) {
+// step: the step the particles are at (a virtual wall that was lifted before it checks nothing).
+void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt,
+                     std::uint64_t step) {
   if (m.ntypes() < 1) throw ConfigError("model has no particle types");
   if (m.ntypes() > 32) throw ConfigError("at most 32 particle types are supported");
   if (m.pairs.size() != static_cast<size_t>(m.ntypes() * m.ntypes()))
@@ -189,7 +192,7 @@ void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, d
     }
     for (size_t k = 0; k < m.virtual_walls.size(); ++k) {
       const VirtualWallSpec& w = m.virtual_walls[k];
-      if (w.until_step == 0 || !((w.types >> p.type[i]) & 1u)) continue;
+      if (w.until_step <= step || !((w.types >> p.type[i]) & 1u)) continue;
       const double d = c[w.axis] - w.position;
       if (w.keep_below ? d >= 0 : d < 0) {
         std::ostringstream s;
@@ -368,14 +371,20 @@ namespace {
 template <class Real>
 class SimulationImpl final : public Simulation {
  public:
+  // resume: a saved state of a run of this model (else the run starts from p at step 0).
   SimulationImpl(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
-                 const SimulationOptions& opt)
-      : model_(model), box_(box), dt_(dt) {
+                 const SimulationOptions& opt, const SimulationState* resume = nullptr)
+      : model_(model), box_(box), dt_(dt), on_run_(opt.on_run) {
     init_host_state(state_, model, box, p, dt, opt);
     HostState<Real>& s = state_;
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
     engine_ = make_engine<Real>(model, opt);
-    engine_->initialize(s);
+    if (resume) {
+      load_state(s, *resume);
+      engine_->restore(s, resume->wall_corrections);
+    } else {
+      engine_->initialize(s);
+    }
     engine_->set_watchdog(opt.watchdog);
     // The initial forces may live only on the device: the next read downloads them.
     host_current_ = false;
@@ -384,6 +393,7 @@ class SimulationImpl final : public Simulation {
   void run(std::uint64_t steps) override {
     engine_->advance(steps);
     host_current_ = false;
+    if (on_run_) on_run_(steps, size());
   }
   void set_dt(double dt) override {
     if (!(dt > 0) || !std::isfinite(dt)) throw ConfigError("dt must be a positive number");
@@ -535,6 +545,13 @@ class SimulationImpl final : public Simulation {
   std::string pass_name() const override { return pass_name_; }
   std::size_t device_bytes() const override { return engine_->device_bytes(); }
   std::string profile_report() const override { return engine_->profile_report(); }
+  SimulationState state() override {
+    sync();
+    SimulationState out = save_state(state_);
+    out.dt = dt_;
+    out.wall_corrections = engine_->wall_corrections();
+    return out;
+  }
 
  private:
   // Storage is sorted by cell; callers see particles in the order they were given.
@@ -560,6 +577,7 @@ class SimulationImpl final : public Simulation {
   std::unique_ptr<Engine<Real>> engine_;
   std::string pass_name_;
   bool host_current_ = false;
+  std::function<void(std::uint64_t, std::size_t)> on_run_;
 };
 
 }  // namespace
@@ -577,6 +595,25 @@ std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& b
   if (model.precision == Precision::Single)
     return std::make_unique<SimulationImpl<float>>(model, box, particles, dt, options);
   return std::make_unique<SimulationImpl<double>>(model, box, particles, dt, options);
+}
+
+std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec& box,
+                                              const SimulationState& state,
+                                              const SimulationOptions& options) {
+  state.check();
+  validate_inputs(model, box, state.particles(), state.dt, state.step);
+  if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
+    throw ConfigError("resuming a run on several ranks is not supported yet: resume it on one "
+                      "rank (the checkpoint holds every particle)");
+  if (options.backend == BackendKind::CUDA) {
+    const std::string why = cuda_unavailable_reason();
+    if (!why.empty()) throw DeviceError(why);
+  }
+  if (model.precision == Precision::Single)
+    return std::make_unique<SimulationImpl<float>>(model, box, state.particles(), state.dt, options,
+                                                   &state);
+  return std::make_unique<SimulationImpl<double>>(model, box, state.particles(), state.dt, options,
+                                                  &state);
 }
 
 #if !defined(MESOROCK_HAVE_CUDA)

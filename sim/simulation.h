@@ -3,6 +3,7 @@
 // a chosen backend in the model's precision. pipeline/ and tests use only this header.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -44,7 +45,12 @@ struct SimulationOptions {
   // Stops a run that blows up (NaN, infinity, runaway velocity) with a NumericalError naming the
   // step, particle and quantity (sim/watchdog.h). On by default.
   WatchdogOptions watchdog;
+  // Called after every Simulation::run with the steps just taken and the particle count (for
+  // progress meters; empty = nothing is called).
+  std::function<void(std::uint64_t steps, std::size_t particles)> on_run;
 };
+
+struct SimulationState;  // sim/checkpoint.h
 
 // Stress tensor parts in Voigt order xx yy zz xy xz yz; sigma = (kinetic + virial) / V, with the
 // sign convention of pressure (positive = pushes outwards), so p = (xx + yy + zz) / 3.
@@ -135,6 +141,9 @@ class Simulation {
   virtual int ranks() const { return 1; }
   virtual std::vector<double> rank_costs() { return {}; }
   virtual std::string decomposition_report() const { return ""; }
+  // Everything needed to continue this run bit for bit (sim/checkpoint.h): the particles in the
+  // engine's cell-sorted storage order, the last forces, step, dt, slab bodies, wall corrections.
+  virtual SimulationState state() = 0;
 };
 
 // Validates the inputs (ConfigError with the reason) and builds the simulation. Initial forces are
@@ -142,6 +151,13 @@ class Simulation {
 std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& box,
                                             const ParticleSet& particles, double dt,
                                             const SimulationOptions& options = {});
+
+// Continues a run from Simulation::state() of the same model and box: the next run() computes
+// what the interrupted simulation would have computed (bit for bit on the same backend; on the
+// CPU whatever the thread count). Throws ConfigError when the state does not fit the model.
+std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec& box,
+                                              const SimulationState& state,
+                                              const SimulationOptions& options = {});
 
 // Whether this build has the CUDA backend and a usable device ("" if yes, else the reason).
 std::string cuda_unavailable_reason();

@@ -127,6 +127,9 @@ class Engine {
   // With a domain decomposition, `hooks` are called between the phases of every step
   // (sim/domain/exchange.h) and the engine's storage is the DomainStore they work on.
   virtual void initialize(HostState<Real>& host, StepHooks<Real>* hooks = nullptr) = 0;
+  // Takes a saved host state (cell-sorted, with the forces, densities and slab forces of step
+  // `host.step` already in it) and continues from it: builds the cell list, computes nothing.
+  virtual void restore(HostState<Real>& host, std::uint64_t wall_corrections) = 0;
   virtual void advance(std::uint64_t steps) = 0;
   virtual void set_dt(Real dt) = 0;
   // Brings host positions, velocities, forces and densities up to date.

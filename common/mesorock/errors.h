@@ -63,4 +63,11 @@ class LimitError : public Error {
   using Error::Error;
 };
 
+// The user stopped a command (Ctrl-C, SIGTERM); it wrote a checkpoint where it could and says
+// how to continue. Exit code 130.
+class Interrupted : public Error {
+ public:
+  using Error::Error;
+};
+
 }  // namespace mesorock

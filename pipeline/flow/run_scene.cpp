@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -13,6 +14,8 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
+#include "pipeline/flow/checkpoint_io.h"
+#include "pipeline/flow/interrupt.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/statistics.h"
 #include "sim/particle_io.h"
@@ -79,7 +82,25 @@ struct ScalarSeries {
       j["stress"][kStressNames[c]] = mean_json(block_average(stress[static_cast<size_t>(c)]));
     return j;
   }
+  // For checkpoints: every series under "series.NAME".
+  std::vector<std::pair<std::string, std::vector<double>*>> named() {
+    std::vector<std::pair<std::string, std::vector<double>*>> out = {
+        {"series.temperature", &temperature},
+        {"series.pressure", &pressure},
+        {"series.pressure_conservative", &pressure_conservative}};
+    for (int c = 0; c < 6; ++c)
+      out.push_back(
+          {std::string("series.stress_") + kStressNames[c], &stress[static_cast<size_t>(c)]});
+    return out;
+  }
 };
+
+std::string read_whole_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
 
 // A region of [[output.regions]] being sampled: one single-bin grid per counted type.
 struct RegionRun {
@@ -167,9 +188,27 @@ std::string step_name(std::uint64_t step) {
 
 void run_scene(const Scene& scene, const RunOptions& o) {
   const auto t_start = Clock::now();
-  sim::ParticleSet initial = build_initial_particles(scene);
-  if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
-  auto sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
+  const fs::path checkpoint_file = checkpoint_path(o.out_dir);
+  std::optional<ResumePoint> resume;
+  std::unique_ptr<sim::Simulation> sim;
+  if (o.resume) {
+    if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
+    resume = read_run_checkpoint(checkpoint_file, scene);
+    sim = sim::resume_simulation(scene.model, scene.box, resume->state, o.sim);
+  } else {
+    if (fs::exists(checkpoint_file))
+      throw ConfigError(checkpoint_file.string() +
+                        ": an interrupted run's checkpoint is here: continue it with --resume, or "
+                        "remove it (or choose another --out) to start afresh");
+    sim::ParticleSet initial = build_initial_particles(scene);
+    if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
+    sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
+  }
+  const std::uint64_t checkpoint_every = o.checkpoint_every.value_or(scene.output.checkpoint_every);
+  if (checkpoint_every > 0 && sim->ranks() > 1)
+    throw ConfigError(scene.path.string() +
+                      ": checkpoints of a run on several ranks are not supported yet: set "
+                      "--checkpoint-every 0 or run on one rank");
 
   // A decomposed run (mpirun): every rank takes part in every step and every observable (they
   // are collective); rank 0 alone writes files and progress.
@@ -182,7 +221,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (progress)
     std::cerr << "rockflow: " << scene.path.string() << ": " << sim->size() << " particles, "
               << sim->pass_name() << ", backend " << sim->backend_name() << ", "
-              << sim::to_string(scene.model.precision) << " precision\n";
+              << sim::to_string(scene.model.precision) << " precision"
+              << (resume ? ", resumed at step " + std::to_string(sim->step()) : std::string())
+              << "\n";
 
   const nlohmann::json provenance = {{"scene", scene.path.string()},
                                      {"seed", scene.model.seed},
@@ -203,9 +244,14 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (thermo_every > 0 && root) {
     thermo.open(thermo_tmp);
     if (!thermo) throw IoError(thermo_path.string() + ": cannot open for writing");
-    thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene " << scene.path.string()
-           << ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per volume\n";
-    thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz\n";
+    if (resume) {
+      thermo << resume->record.text("thermo.csv");  // the rows so far, header included
+    } else {
+      thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+             << scene.path.string()
+             << ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per volume\n";
+      thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz\n";
+    }
     thermo << std::setprecision(10);
   }
   // regions.csv and saturation.csv grow like thermo.csv, under temporary names.
@@ -220,30 +266,42 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (!regions.empty() && root) {
     region_rows.open(temporary_path_for(regions_path));
     if (!region_rows) throw IoError(regions_path.string() + ": cannot open for writing");
-    region_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                << scene.path.string()
-                << ", reduced units; flow_rate_a = sum v_a / L_a over the region (m = 1)\n";
-    region_rows << "step,time,stage,region,type,count,number_density,flow_rate_x,flow_rate_y,"
-                   "flow_rate_z\n";
+    if (resume) {
+      region_rows << resume->record.text("regions.csv");
+    } else {
+      region_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                  << scene.path.string()
+                  << ", reduced units; flow_rate_a = sum v_a / L_a over the region (m = 1)\n";
+      region_rows << "step,time,stage,region,type,count,number_density,flow_rate_x,flow_rate_y,"
+                     "flow_rate_z\n";
+    }
     region_rows << std::setprecision(10);
     if (any_saturation) {
       saturation_rows.open(temporary_path_for(saturation_path));
       if (!saturation_rows) throw IoError(saturation_path.string() + ": cannot open for writing");
-      saturation_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                      << scene.path.string()
-                      << ": saturation = share of the saturation_of type among the region's "
-                         "counted types; recovery = 1 - saturation\n";
-      saturation_rows << "step,time,stage,region,saturation,recovery,counted\n";
+      if (resume) {
+        saturation_rows << resume->record.text("saturation.csv");
+      } else {
+        saturation_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                        << scene.path.string()
+                        << ": saturation = share of the saturation_of type among the region's "
+                           "counted types; recovery = 1 - saturation\n";
+        saturation_rows << "step,time,stage,region,saturation,recovery,counted\n";
+      }
       saturation_rows << std::setprecision(10);
     }
     if (any_pressure) {
       pressure_rows.open(temporary_path_for(pressure_path));
       if (!pressure_rows) throw IoError(pressure_path.string() + ": cannot open for writing");
-      pressure_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                    << scene.path.string()
-                    << ": stress of the region's counted types = (sum of their m v v + half of "
-                       "each of their pair virials) / region volume; pressure = trace / 3\n";
-      pressure_rows << "step,time,stage,region,pressure,sxx,syy,szz,sxy,sxz,syz\n";
+      if (resume) {
+        pressure_rows << resume->record.text("region_pressure.csv");
+      } else {
+        pressure_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                      << scene.path.string()
+                      << ": stress of the region's counted types = (sum of their m v v + half of "
+                         "each of their pair virials) / region volume; pressure = trace / 3\n";
+        pressure_rows << "step,time,stage,region,pressure,sxx,syy,szz,sxy,sxz,syz\n";
+      }
       pressure_rows << std::setprecision(10);
     }
   }
@@ -253,15 +311,38 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (!scene.model.injections.empty() && thermo_every > 0 && root) {
     injection_rows.open(temporary_path_for(injection_path));
     if (!injection_rows) throw IoError(injection_path.string() + ": cannot open for writing");
-    injection_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                   << scene.path.string()
-                   << ": injected = particles moved from the outlet box to the inlet box so far; "
-                      "missed = events that found no particle to eject\n";
-    injection_rows << "step,time,stage,boundary,type,injected,missed\n";
+    if (resume) {
+      injection_rows << resume->record.text("injection.csv");
+    } else {
+      injection_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                     << scene.path.string()
+                     << ": injected = particles moved from the outlet box to the inlet box so "
+                        "far; missed = events that found no particle to eject\n";
+      injection_rows << "step,time,stage,boundary,type,injected,missed\n";
+    }
   }
+  // The engine counts from its start; a resumed run adds what was counted before the checkpoint
+  // (the picks themselves depend only on the seed, the step and the ids: they continue exactly).
+  std::vector<double> injected_before(scene.model.injections.size(), 0.0),
+      missed_before(scene.model.injections.size(), 0.0);
+  if (resume && !scene.model.injections.empty()) {
+    injected_before = resume->record.series("injection.injected");
+    missed_before = resume->record.series("injection.missed");
+    if (injected_before.size() != scene.model.injections.size() ||
+        missed_before.size() != scene.model.injections.size())
+      throw IoError(resume->record.file + ": injection counters do not match the scene's");
+  }
+  auto injection_totals = [&]() {
+    std::vector<sim::InjectionCounts> counts = sim->injections();  // collective
+    for (size_t k = 0; k < counts.size() && k < injected_before.size(); ++k) {
+      counts[k].injected += static_cast<std::uint64_t>(injected_before[k]);
+      counts[k].missed += static_cast<std::uint64_t>(missed_before[k]);
+    }
+    return counts;
+  };
   auto write_injection_rows = [&](std::uint64_t step, double t, const std::string& stage) {
     if (scene.model.injections.empty() || thermo_every == 0) return;
-    const auto counts = sim->injections();  // collective
+    const auto counts = injection_totals();
     if (!injection_rows.is_open()) return;
     for (size_t k = 0; k < counts.size(); ++k)
       injection_rows
@@ -275,11 +356,15 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (!scene.model.rigid_slabs.empty() && thermo_every > 0 && root) {
     slab_rows.open(temporary_path_for(slabs_path));
     if (!slab_rows) throw IoError(slabs_path.string() + ": cannot open for writing");
-    slab_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-              << scene.path.string()
-              << ": rigid slabs; position = mean coordinate of the slab's particles along its "
-                 "axis; force = pair forces + applied (pressure x cross-section)\n";
-    slab_rows << "step,time,stage,slab,axis,position,velocity,force,applied_force\n";
+    if (resume) {
+      slab_rows << resume->record.text("slabs.csv");
+    } else {
+      slab_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
+                << scene.path.string()
+                << ": rigid slabs; position = mean coordinate of the slab's particles along its "
+                   "axis; force = pair forces + applied (pressure x cross-section)\n";
+      slab_rows << "step,time,stage,slab,axis,position,velocity,force,applied_force\n";
+    }
     slab_rows << std::setprecision(10);
   }
   // balance.csv: a decomposed run's load balance at every thermo row (rank costs, max/mean).
@@ -324,16 +409,65 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   ScalarSeries series;
 
   double time = 0;
+  double earlier_run_seconds = 0;  // spent before the checkpoint this run resumed from
+  if (resume) {
+    const RunRecord& rec = resume->record;
+    time = rec.number("time");
+    earlier_run_seconds = rec.number("run_seconds");
+    for (auto& [name, v] : series.named()) *v = rec.series(name);
+    for (auto& b : binned) rec.get_binned("binned." + b.spec.name, b.average);
+    const nlohmann::json last = nlohmann::json::parse(rec.text("regions.last"));
+    for (size_t k = 0; k < regions.size() && k < last.size(); ++k) regions[k].last = last[k];
+  }
+  nlohmann::json parameters = {{"provenance", provenance}, {"threads", o.sim.threads}};
+  parameters["checkpoint_every"] = checkpoint_every;
   std::uint64_t total_steps = 0;
   const auto t_run = Clock::now();
+  // Everything the outputs need to continue from this step (all outputs of it are written).
+  auto save_checkpoint = [&]() {
+    RunRecord rec;
+    for (auto [stream, name] :
+         {std::pair{&thermo, thermo_path}, std::pair{&region_rows, regions_path},
+          std::pair{&saturation_rows, saturation_path}, std::pair{&slab_rows, slabs_path},
+          std::pair{&pressure_rows, pressure_path}, std::pair{&injection_rows, injection_path}}) {
+      if (!stream->is_open()) continue;
+      stream->flush();
+      if (!*stream) throw IoError(name.string() + ": write failed");
+      rec.texts[name.filename().string()] = read_whole_file(temporary_path_for(name));
+    }
+    rec.numbers["time"] = {time};
+    rec.numbers["run_seconds"] = {earlier_run_seconds +
+                                  std::chrono::duration<double>(Clock::now() - t_run).count()};
+    for (auto& [name, v] : series.named()) rec.numbers[name] = *v;
+    for (const auto& b : binned) rec.put_binned("binned." + b.spec.name, b.average);
+    nlohmann::json last = nlohmann::json::array();
+    for (const auto& r : regions) last.push_back(r.last);
+    rec.texts["regions.last"] = last.dump();
+    if (!scene.model.injections.empty()) {
+      std::vector<double> injected, missed;
+      for (const auto& c : injection_totals()) {
+        injected.push_back(static_cast<double>(c.injected));
+        missed.push_back(static_cast<double>(c.missed));
+      }
+      rec.numbers["injection.injected"] = injected;
+      rec.numbers["injection.missed"] = missed;
+    }
+    write_run_checkpoint(checkpoint_file, *sim, scene, parameters.dump(), rec);
+  };
+  // Steps of a stage begin at this step; its time at this time (resume skips what was done).
+  const std::uint64_t start_step = sim->step();
+  std::uint64_t stage_begin = 0;
+  double stage_time = 0;
   try {
-    if (!regions.empty())
+    if (!regions.empty() && !resume)
       sample_regions(*sim, scene, regions, sim->step(), time, scene.stages.front().name,
                      region_rows, saturation_rows, pressure_rows);
     for (const auto& stage : scene.stages) {
       sim->set_dt(stage.dt);
       const bool averaged = stage_is_averaged(scene, stage.name);
-      std::uint64_t done = 0;
+      std::uint64_t done =
+          start_step > stage_begin ? std::min(stage.steps, start_step - stage_begin) : 0;
+      const std::uint64_t done_before = done;
       const auto t_stage = Clock::now();
       // Progress about every hundredth of the stage; outputs at their own multiples of the step.
       const std::uint64_t progress_every = std::max<std::uint64_t>(1, stage.steps / 100);
@@ -348,9 +482,12 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         if (averaged)
           for (const auto& b : binned) until_next(b.spec.every);
         for (const auto& r : regions) until_next(r.spec->every);
+        until_next(checkpoint_every);
+        n = std::min<std::uint64_t>(n, 1000);  // Ctrl-C is answered between chunks
         sim->run(n);
         done += n;
-        time += static_cast<double>(n) * stage.dt;
+        // From the stage's start, so that the time does not depend on how the stage was chunked.
+        time = stage_time + static_cast<double>(done) * stage.dt;
         const std::uint64_t now = sim->step();
         if (thermo_every > 0 && now % thermo_every == 0) {
           const double T = sim->kinetic_temperature();
@@ -387,10 +524,26 @@ void run_scene(const Scene& scene, const RunOptions& o) {
             if (now % b.spec.every == 0) b.average.add(sim->bin_sums(b.average.grid()));
         sample_regions(*sim, scene, regions, now, time, stage.name, region_rows, saturation_rows,
                        pressure_rows);
+        const int signal = interrupt_requested();
+        if (checkpoint_every > 0 && now % checkpoint_every == 0) save_checkpoint();
+        if (signal) {
+          // One rank: a checkpoint of this step. Several: their signals need not arrive at one
+          // step, so each stops where it is (mpirun ends the rest) without a checkpoint.
+          if (sim->ranks() == 1 && !(checkpoint_every > 0 && now % checkpoint_every == 0))
+            save_checkpoint();
+          if (progress && isatty(STDERR_FILENO)) std::cerr << "\n";
+          const std::string what = std::string(signal == SIGINT ? "Ctrl-C" : "SIGTERM") +
+                                   " at step " + std::to_string(now);
+          if (sim->ranks() > 1) throw Interrupted(what + " (no checkpoint: several ranks)");
+          throw Interrupted(what + "; checkpoint written to " + checkpoint_file.string() +
+                            "; continue with: rockflow run " + scene.path.string() + " --out " +
+                            o.out_dir.string() + " --resume");
+        }
         if (progress) {
           const double el = std::chrono::duration<double>(Clock::now() - t_stage).count();
-          const double rate = el > 0 ? sim->size() * static_cast<double>(done) / el / 1e6 : 0;
-          const double eta = done > 0 ? el * static_cast<double>(stage.steps - done) / done : 0;
+          const std::uint64_t here = done - done_before;  // steps run in this session
+          const double rate = el > 0 ? sim->size() * static_cast<double>(here) / el / 1e6 : 0;
+          const double eta = here > 0 ? el * static_cast<double>(stage.steps - done) / here : 0;
           // On a terminal one line is redrawn; in a log, a line per tenth of the stage.
           const bool tty = isatty(STDERR_FILENO);
           const std::uint64_t tenth = std::max<std::uint64_t>(1, stage.steps / 10);
@@ -402,7 +555,9 @@ void run_scene(const Scene& scene, const RunOptions& o) {
         }
       }
       total_steps += stage.steps;
-      if (progress && isatty(STDERR_FILENO)) std::cerr << "\n";
+      stage_begin += stage.steps;
+      stage_time += static_cast<double>(stage.steps) * stage.dt;
+      if (progress && isatty(STDERR_FILENO) && done > done_before) std::cerr << "\n";
     }
   } catch (...) {
     thermo.close();
@@ -421,7 +576,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     fs::remove(temporary_path_for(saturation_path), ec);
     throw;
   }
-  const double run_seconds = std::chrono::duration<double>(Clock::now() - t_run).count();
+  const double run_seconds =
+      earlier_run_seconds + std::chrono::duration<double>(Clock::now() - t_run).count();
   if (thermo.is_open()) {
     thermo.close();
     fs::rename(thermo_tmp, thermo_path, ec);
@@ -511,7 +667,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   }
   if (!scene.model.injections.empty()) {
     nlohmann::json ij = nlohmann::json::array();
-    const auto counts = sim->injections();
+    const auto counts = injection_totals();
     for (size_t k = 0; k < counts.size(); ++k) {
       const sim::InjectionSpec& q = scene.model.injections[k];
       ij.push_back({{"type", scene.model.types[static_cast<size_t>(q.inject_type)].name},
@@ -540,7 +696,11 @@ void run_scene(const Scene& scene, const RunOptions& o) {
                         {"max_dissipation_factor", w.max_dissipation_factor},
                         {"corrections", sim->wall_corrections()}};
   }
+  if (resume) summary["resumed_from_step"] = resume->state.step;
+  if (checkpoint_every > 0) summary["checkpoint_every"] = checkpoint_every;
   if (root) write_text_atomically(o.out_dir / "summary.json", summary.dump(2) + "\n");
+  // The run is complete: its outputs hold the final state, and the checkpoint is spent.
+  if (root) fs::remove(checkpoint_file, ec);
   if (progress)
     std::cerr << "rockflow: done: " << total_steps << " steps in " << std::setprecision(3)
               << run_seconds << " s; outputs in " << o.out_dir.string()

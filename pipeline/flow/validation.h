@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "pipeline/flow/systems.h"
+#include "pipeline/flow/progress.h"
 #include "sim/model.h"
 #include "sim/simulation.h"
 
@@ -86,7 +87,9 @@ struct ValidateOptions {
 // Small helpers the case files share: a progress line on stderr when verbose, a number with
 // `precision` significant digits, and the seconds since t0.
 inline void progress(const ValidateOptions& o, const std::string& what) {
-  if (o.verbose) std::cerr << what << std::endl;
+  if (!o.verbose) return;
+  clear_progress_line(std::cerr);  // a redrawn progress meter line (pipeline/flow/progress.h)
+  std::cerr << what << std::endl;
 }
 inline std::string fmt(double v, int precision = 4) {
   std::ostringstream s;
@@ -101,6 +104,9 @@ struct ValidationCase {
   std::string name;
   std::string summary;
   std::function<CaseResult(const ValidateOptions&)> run;
+  // Work in million particle-steps at the small and full sizes, for the progress meter's ETA
+  // (0 = not known: the meter shows elapsed time and MPS/s only).
+  double work_small = 0, work_full = 0;
 };
 
 const std::vector<ValidationCase>& validation_cases();
@@ -115,26 +121,12 @@ CaseResult run_interfacial_tension_case(const ValidateOptions& o);
 CaseResult run_contact_angle_case(const ValidateOptions& o);
 // The flooding case (validation_flooding.cpp).
 CaseResult run_flooding_mini_case(const ValidateOptions& o);
+// The permeability cases (validation_permeability.cpp).
+CaseResult run_perm_slit_case(const ValidateOptions& o);
+CaseResult run_perm_tube_case(const ValidateOptions& o);
+CaseResult run_perm_sphere_array_case(const ValidateOptions& o);
+CaseResult run_darcy_linearity_case(const ValidateOptions& o);
 const ValidationCase* find_validation_case(const std::string& name);
-
-// The liquid of the wall cases: A = -40, B = 25, rd = 0.75, gamma = 4.5, rho = 7 (the viscosity
-// case's), and its shear viscosity from the `viscosity` case at full size (H100, 2026-11-23,
-// docs/validation.md): pooled over three forcings, 6.97 +- 0.057.
-constexpr double kA = -40, kB = 25, kRd = 0.75, kGamma = 4.5, kRho = 7.0;
-constexpr double kBulkViscosity = 6.97, kBulkViscosityError = 0.057;
-
-// Depth below the pore surface (> 0 inside the solid, <= 0 in the pore) of a point.
-using SolidDepth = std::function<double(double x, double y, double z)>;
-
-// Walls of frozen liquid (validation_walls.cpp): equilibrates the liquid in a periodic box, then
-// keeps particles in the pore (depth <= 0) as fluid and those with 0 < depth <= thickness as
-// frozen wall; deeper ones are dropped. This is the packing of Liu et al. that the 2020 paper
-// describes, affordable because validation boxes are small; the wall has the liquid's own
-// structure and density, which the wall model's no-slip derivation assumes. Types: 0 fluid,
-// 1 wall; every pair has the liquid's parameters; the wall model is on with n_w = rho.
-BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
-                              const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
-                              std::uint64_t seed, const ValidateOptions& o);
 
 // Text table and the JSON object of the --json flag.
 std::string format_case_text(const CaseResult& r);

@@ -222,6 +222,18 @@ const std::vector<ValidationCase>& validation_cases() {
       {"contact-angle",
        "liquid plug in a slit of frozen walls (2020 paper): contact angle vs A_SL (calibration)",
        run_contact_angle_case},
+      // The permeability cases' work (million particle-steps, small and full) feeds the ETA of the
+      // progress meter; the other cases have none recorded yet (the meter then shows no ETA).
+      {"perm-slit", "slit pore between wall-model walls: k = h^2/12 within 10%", run_perm_slit_case,
+       21.6, 784},
+      {"perm-tube", "circular tube: k = R^2/8 over the pore area within 10%", run_perm_tube_case,
+       30.3, 787},
+      {"perm-sphere-array",
+       "simple cubic array of spheres, c = 0.125: Zick & Homsy 1982 permeability within 10%",
+       run_perm_sphere_array_case, 36.0, 926},
+      {"darcy-linearity",
+       "slit at three forces: flow rate linear in the gradient, intercept within 2 error bars of 0",
+       run_darcy_linearity_case, 32.0, 1403},
       {"flooding-mini",
        "2020 paper's flooding set-up in small: pistons push a working fluid through a grain "
        "block; recovery, no particle through a wall or slab",

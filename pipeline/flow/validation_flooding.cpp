@@ -21,12 +21,14 @@
 #include "mesorock/errors.h"
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/validation.h"
+#include "pipeline/flow/wall_liquid.h"
 #include "sim/init.h"
 
 namespace mesorock::pipeline {
 
 namespace {
 
+using namespace wall_liquid;
 using Clock = std::chrono::steady_clock;
 
 struct FloodGeometry {

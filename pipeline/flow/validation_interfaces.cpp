@@ -10,6 +10,7 @@
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
+#include "pipeline/flow/viscosity_calibration.h"
 #include "sim/init.h"
 #include "sim/observables.h"
 
@@ -175,81 +176,21 @@ ViscosityRun measure_viscosity(double shear_rate, const ValidateOptions& o, std:
   const double Lxy = full ? 10 : 6, Lz = viscosity_box_z(o), rho = 7.0;
   const double g = force_for_shear_rate(shear_rate, Lz);
   const std::uint64_t equilibrate = full ? 4000 : 1500, sample = full ? 40000 : 8000;
-  const std::uint64_t every = 10;
   const double L[3] = {Lxy, Lxy, Lz};
-  auto s = make_bulk_mdpd(-40, 25, 0.75, 4.5, rho, L, seed, o.density_kernel);
-  s.model.types[0].body_force = {g, 0, 0};
-  s.model.body_force_profile = sim::BodyForceProfile::Reversed;
-  s.model.body_force_axis = 2;
-  auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
+  const auto s = make_bulk_mdpd(-40, 25, 0.75, 4.5, rho, L, seed, o.density_kernel);
   const auto t0 = Clock::now();
   const std::string label = "viscosity g=" + fmt(g, 3);
   progress(o, label + ": " + std::to_string(s.particles.size()) + " particles, equilibrating " +
-                  std::to_string(equilibrate) + " steps (" + sim->pass_name() + ", " +
-                  sim->backend_name() + ")");
-  sim->run(equilibrate);
-  const int bins = static_cast<int>(Lz * 2);  // 0.5 rc bins
-  const sim::BinGrid grid = sim::BinGrid::profile(2, bins, s.box.lo, s.box.hi);
-  sim::BinnedAverage profile(grid);
-  // The error bar of eta comes from the scatter of eta over consecutive blocks of the run: the
-  // bins of one profile are correlated (slow hydrodynamic modes move them together), so a fit
-  // that treats their errors as independent underestimates the error of eta.
-  constexpr int kBlocks = 20;
-  const std::uint64_t samples = sample / every, per_block = samples / kBlocks;
-  std::vector<std::vector<double>> block_sums(kBlocks);
-  for (std::uint64_t k = 0; k < per_block * kBlocks; ++k) {
-    sim->run(every);
-    const auto sums = sim->bin_sums(grid);
-    profile.add(sums);
-    auto& blk = block_sums[static_cast<size_t>(k / per_block)];
-    if (blk.empty()) blk.assign(sums.size(), 0.0);
-    for (size_t q = 0; q < sums.size(); ++q) blk[q] += sums[q];
-  }
-  const double width = Lz / bins;
-  // eta from one velocity profile: the two halves' parabola fits, averaged with weights 1/err^2.
-  auto eta_of = [&](const std::vector<double>& u, const std::vector<double>& err,
-                    double* worst_chi2) {
-    double inv_var = 0, weighted = 0;
-    for (int half = 0; half < 2; ++half) {
-      std::vector<double> z, uu, ee;
-      for (int b = half * bins / 2; b < (half + 1) * bins / 2; ++b) {
-        z.push_back((b + 0.5) * width);
-        uu.push_back(u[static_cast<size_t>(b)]);
-        ee.push_back(std::max(err[static_cast<size_t>(b)], 1e-12));
-      }
-      double zc = 0;
-      for (double v : z) zc += v;
-      const ParabolaFit f = fit_parabola(z, uu, ee, zc / static_cast<double>(z.size()));
-      const double sign = half == 0 ? 1.0 : -1.0;
-      const double eta = -sign * rho * g / (2 * f.c2);
-      const double e = std::abs(eta) * f.c2_error / std::abs(f.c2);
-      inv_var += 1 / (e * e);
-      weighted += eta / (e * e);
-      if (worst_chi2) *worst_chi2 = std::max(*worst_chi2, f.chi2_per_dof);
-    }
-    return weighted / inv_var;
-  };
-  const auto u = profile.velocity(0);
-  const auto T = profile.temperature();
+                  std::to_string(equilibrate) + " steps (" + sim::to_string(o.sim.backend) + ")");
+  const ReversePoiseuille m = measure_reverse_poiseuille(s, g, rho, equilibrate, sample, 20, o.sim);
   ViscosityRun r;
   r.g = g;
   r.shear_rate = shear_rate;
-  double tsum = 0;
-  for (double v : T.mean) tsum += v;
-  r.temperature = tsum / static_cast<double>(T.mean.size());
-  for (double v : u.mean) r.u_max = std::max(r.u_max, std::abs(v));
-  r.eta = eta_of(u.mean, u.error, &r.chi2_per_dof);
-  std::vector<double> etas;
-  for (const auto& blk : block_sums) {
-    std::vector<double> ub(static_cast<size_t>(bins)), ones(static_cast<size_t>(bins), 1.0);
-    for (int b = 0; b < bins; ++b) {
-      const double n = blk[static_cast<size_t>(b) * sim::kBinFields + sim::kBinCount];
-      ub[static_cast<size_t>(b)] =
-          n > 0 ? blk[static_cast<size_t>(b) * sim::kBinFields + sim::kBinVx] / n : 0.0;
-    }
-    etas.push_back(eta_of(ub, ones, nullptr));
-  }
-  r.eta_error = block_average(etas, 0).error;  // plain standard error of the block values
+  r.eta = m.eta;
+  r.eta_error = m.eta_error;
+  r.chi2_per_dof = m.chi2_per_dof;
+  r.temperature = m.temperature;
+  r.u_max = m.u_max;
   progress(o, label + ": eta = " + fmt(r.eta) + " +- " + fmt(r.eta_error, 2) + ", u_max " +
                   fmt(r.u_max, 3) + ", T " + fmt(r.temperature, 4) + ", fit chi2/dof " +
                   fmt(r.chi2_per_dof, 3) + " (" + fmt(seconds_since(t0), 3) + " s)");

@@ -19,6 +19,7 @@
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
+#include "pipeline/flow/wall_liquid.h"
 #include "sim/init.h"
 #include "sim/observables.h"
 
@@ -26,34 +27,7 @@ namespace mesorock::pipeline {
 
 using Clock = std::chrono::steady_clock;
 
-BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
-                              const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
-                              std::uint64_t seed, const ValidateOptions& o) {
-  BuiltSystem bulk = make_bulk_mdpd(kA, kB, kRd, kGamma, kRho, L, seed, o.density_kernel);
-  {
-    auto sim = sim::make_simulation(bulk.model, bulk.box, bulk.particles, 0.01, o.sim);
-    sim->run(equilibrate);
-    bulk.particles = sim->particles();
-  }
-  BuiltSystem s;
-  s.model = bulk.model;
-  s.model.add_type({"wall", true, {0, 0, 0}});
-  for (int a = 0; a < 2; ++a)
-    for (int b = 0; b < 2; ++b) s.model.set_pair(a, b, {kA, kB, kGamma});
-  s.model.wall_model.enabled = true;
-  s.model.wall_model.wall_density = kRho;  // the frozen liquid keeps the liquid's density
-  s.box = bulk.box;
-  s.box.periodic = periodic;
-  const sim::ParticleSet& p = bulk.particles;
-  for (size_t i = 0; i < p.size(); ++i) {
-    const double d = depth(p.x[i], p.y[i], p.z[i]);
-    if (d > thickness) continue;
-    const bool wall = d > 0;
-    s.particles.add(p.x[i], p.y[i], p.z[i], wall ? 0 : p.vx[i], wall ? 0 : p.vy[i],
-                    wall ? 0 : p.vz[i], wall ? 1 : 0, p.id[i]);
-  }
-  return s;
-}
+using namespace wall_liquid;
 
 namespace {
 

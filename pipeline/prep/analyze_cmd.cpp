@@ -5,9 +5,9 @@
 #include <sstream>
 
 #include "mesorock/errors.h"
+#include "mesorock/plot.h"
 #include "pipeline/prep/common.h"
 #include "voxel/local_thickness.h"
-#include "voxel/plot.h"
 #include "voxel/pore_analysis.h"
 #include "voxel/staged_output.h"
 
@@ -239,26 +239,26 @@ int run_analyze(const AnalyzeArgs& a) {
   progress.stage("write " + a.out, 0, [&] {
     voxel::StagedOutputs staged = voxel::StagedOutputs::in_directory(out);
     {
-      voxel::Plot plot;
+      mesorock::plot::Plot plot;
       plot.title = "Porosity profile along " + a.profile_axis;
       plot.x_label = a.profile_axis + " (" + spacing.unit + ")";
       plot.y_label = "porosity";
       plot.x = record["profiles"][a.profile_axis]["position"].get<std::vector<double>>();
       plot.y = stats.porosity_profile(profile_axis);
-      voxel::write_plot_png(plot, staged.stage("porosity_profile.png"),
-                            (out / "porosity_profile.png").string());
+      mesorock::plot::write_plot_png(plot, staged.stage("porosity_profile.png"),
+                                     (out / "porosity_profile.png").string());
     }
     if (have_psd) {
-      voxel::Plot plot;
+      mesorock::plot::Plot plot;
       plot.title = "Pore size distribution (local thickness)";
       plot.x_label = "local thickness (" + spacing.unit + ")";
       plot.y_label = "pore volume fraction";
-      plot.style = voxel::PlotStyle::kBars;
+      plot.style = mesorock::plot::PlotStyle::kBars;
       plot.x.assign(psd.edges.begin(), psd.edges.end() - 1);
       plot.y = psd.volume_fraction;
       plot.bar_width = psd.edges.size() > 1 ? psd.edges[1] - psd.edges[0] : 1.0;
-      voxel::write_plot_png(plot, staged.stage("pore_size_distribution.png"),
-                            (out / "pore_size_distribution.png").string());
+      mesorock::plot::write_plot_png(plot, staged.stage("pore_size_distribution.png"),
+                                     (out / "pore_size_distribution.png").string());
     }
     write_json(staged.stage("analysis.json"), record, (out / "analysis.json").string());
     staged.commit();

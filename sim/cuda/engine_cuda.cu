@@ -503,6 +503,20 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
 
   void initialize(HostState<Real>& host, StepHooks<Real>* hooks) override {
     hooks_ = hooks;
+    upload(host);
+    compute_forces();
+    if (nslabs_ > 0) slab_forces(false);
+    check(cudaDeviceSynchronize(), "initial forces");
+  }
+
+  void restore(HostState<Real>& host, std::uint64_t wall_corrections) override {
+    upload(host);
+    corrected_ = wall_corrections;
+    sort();  // the saved storage is already sorted (stable sort: no particle moves)
+    check(cudaDeviceSynchronize(), "restore");
+  }
+
+  void upload(HostState<Real>& host) {
     host_ = &host;
     const int n = host.size();
     n_ = n;
@@ -541,9 +555,6 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
       slab_velocity_.upload(host.slab_velocity);
       slab_partials_.resize(static_cast<size_t>(nslabs_) * blocks_for(n));
     }
-    compute_forces();
-    if (nslabs_ > 0) slab_forces(false);
-    check(cudaDeviceSynchronize(), "initial forces");
   }
 
   // The slabs' total forces from the last force pass, then (kick) their second half kick. A

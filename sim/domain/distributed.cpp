@@ -154,6 +154,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       host_current_ = false;
       cells_current_ = true;
       if (rcb && every > 0 && engine_->step() % every == 0) rebalance();
+      if (opt_.on_run) opt_.on_run(n, total_);
     }
   }
   void set_dt(double dt) override {
@@ -314,6 +315,10 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     });
     comm_->sum(per_rank.data(), static_cast<int>(per_rank.size()));
     return per_rank;
+  }
+  SimulationState state() override {
+    throw ConfigError("checkpoints of a run on several ranks are not supported yet: run it on "
+                      "one rank to checkpoint it");
   }
   std::string decomposition_report() const override {
     return std::string(to_string(opt_.decomposition.method)) + " over " +

@@ -3,12 +3,18 @@
 #include <zlib.h>
 
 #include "mesorock/errors.h"
+#include "mesorock/plot.h"
 #include "test_util.h"
-#include "voxel/plot.h"
 #include "voxel/roi.h"
 
 namespace mesorock::voxel::test {
 namespace {
+
+using mesorock::plot::encode_png;
+using mesorock::plot::Image;
+using mesorock::plot::Plot;
+using mesorock::plot::PlotStyle;
+using mesorock::plot::render_plot;
 
 TEST(Roi, CropCopiesTheBox) {
   const Volume v = random_volume(Shape{7, 9, 11}, DType::kUInt16, 3);

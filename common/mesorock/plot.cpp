@@ -1,4 +1,4 @@
-#include "voxel/plot.h"
+#include "mesorock/plot.h"
 
 #include <zlib.h>
 
@@ -8,9 +8,10 @@
 #include <cstdio>
 #include <fstream>
 
+#include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 
-namespace mesorock::voxel {
+namespace mesorock::plot {
 namespace {
 
 // 5x8 pixel glyphs, one byte per column, bit 0 the top row (the classic "glcdfont" layout; the
@@ -72,6 +73,8 @@ const Glyph* glyph_of(char c) {
 }
 
 constexpr std::uint32_t kBlack = 0x000000, kGrey = 0xC8C8C8, kBlue = 0x1F5FA8;
+// Colours of further series, in order.
+constexpr std::uint32_t kPalette[] = {0xC0392B, 0x27AE60, 0xE67E22, 0x8E44AD, 0x7F8C8D};
 
 constexpr int kTextScale = 2;
 constexpr int kAdvance = 6 * kTextScale;  // 5 columns and a gap
@@ -217,26 +220,61 @@ std::string encode_png(const Image& image) {
 void write_png(const Image& image, const std::filesystem::path& path,
                const std::string& display_name) {
   const std::string bytes = encode_png(image);
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  out.close();
-  if (!out) throw IoError(display_name + ": cannot write PNG");
+  write_atomically(path, [&](const std::filesystem::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) throw IoError(display_name + ": cannot write PNG");
+  });
+}
+
+// A point marker (a filled square) and its error bar with caps.
+void draw_point(Image& img, int x, int y, std::uint32_t colour) {
+  fill_rect(img, x - 3, y - 3, x + 3, y + 3, colour);
+}
+void draw_error_bar(Image& img, int x, int y_lo, int y_hi, std::uint32_t colour) {
+  fill_rect(img, x, std::min(y_lo, y_hi), x, std::max(y_lo, y_hi), colour);
+  fill_rect(img, x - 4, y_lo, x + 4, y_lo, colour);
+  fill_rect(img, x - 4, y_hi, x + 4, y_hi, colour);
 }
 
 Image render_plot(const Plot& plot) {
   Image img(plot.width, plot.height);
   const int left = 100, right = 30, top = 50, bottom = 75;
   const int x0 = left, x1 = plot.width - right, y0 = plot.height - bottom, y1 = top;
-  // Data ranges.
-  double xmin = 0, xmax = 1, ymin = 0, ymax = 1;
-  if (!plot.x.empty()) {
-    xmin = *std::min_element(plot.x.begin(), plot.x.end());
-    xmax = *std::max_element(plot.x.begin(), plot.x.end());
-    if (plot.style == PlotStyle::kBars) xmax += plot.bar_width;
-    const auto [lo, hi] = std::minmax_element(plot.y.begin(), plot.y.end());
-    ymin = plot.y_from_zero ? std::min(0.0, *lo) : *lo;
-    ymax = *hi;
+  // Every series as one list: the main one first.
+  Series main;
+  main.label = plot.label;
+  main.style = plot.style;
+  main.x = plot.x;
+  main.y = plot.y;
+  main.y_error = plot.y_error;
+  main.colour = kBlue;
+  std::vector<Series> all = {main};
+  for (std::size_t k = 0; k < plot.more.size(); ++k) {
+    all.push_back(plot.more[k]);
+    if (all.back().colour == 0)
+      all.back().colour = kPalette[k % (sizeof kPalette / sizeof *kPalette)];
   }
+  // Data ranges over every series, error bars included.
+  double xmin = 0, xmax = 1, ymin = 0, ymax = 1;
+  bool any = false;
+  for (const Series& s : all) {
+    for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+      const double e = i < s.y_error.size() ? std::fabs(s.y_error[i]) : 0.0;
+      const double xr = s.x[i] + (s.style == PlotStyle::kBars ? plot.bar_width : 0.0);
+      if (!any) {
+        xmin = s.x[i], xmax = xr, ymin = s.y[i] - e, ymax = s.y[i] + e;
+        any = true;
+      }
+      xmin = std::min(xmin, s.x[i]);
+      xmax = std::max(xmax, xr);
+      ymin = std::min(ymin, s.y[i] - e);
+      ymax = std::max(ymax, s.y[i] + e);
+    }
+  }
+  if (plot.y_from_zero) ymin = std::min(0.0, ymin);
+  if (plot.x_from_zero) xmin = std::min(0.0, xmin);
   if (!(xmax > xmin)) xmax = xmin + 1;
   if (!(ymax > ymin)) ymax = ymin + (ymin == 0 ? 1 : std::fabs(ymin) * 0.1);
   ymax += (ymax - ymin) * 0.05;
@@ -262,19 +300,37 @@ Image render_plot(const Plot& plot) {
     draw_text(img, x - text_width(label) / 2, y0 + 12, label, kBlack);
   }
   // Data.
-  if (plot.style == PlotStyle::kBars) {
-    for (std::size_t i = 0; i < plot.x.size(); ++i) {
-      const int a = px(plot.x[i]), b = px(plot.x[i] + plot.bar_width) - 1;
-      if (plot.y[i] == 0) continue;
-      fill_rect(img, a, py(plot.y[i]), std::max(a, b), py(0) - 1, kBlue);
+  for (const Series& s : all) {
+    const std::size_t n = std::min(s.x.size(), s.y.size());
+    if (s.style == PlotStyle::kBars) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const int a = px(s.x[i]), b = px(s.x[i] + plot.bar_width) - 1;
+        if (s.y[i] == 0) continue;
+        fill_rect(img, a, py(s.y[i]), std::max(a, b), py(0) - 1, s.colour);
+      }
+      continue;
     }
-  } else {
-    for (std::size_t i = 1; i < plot.x.size(); ++i) {
-      draw_line(img, px(plot.x[i - 1]), py(plot.y[i - 1]), px(plot.x[i]), py(plot.y[i]), kBlue);
+    for (std::size_t i = 0; i < n && i < s.y_error.size(); ++i)
+      draw_error_bar(img, px(s.x[i]), py(s.y[i] - s.y_error[i]), py(s.y[i] + s.y_error[i]),
+                     s.colour);
+    if (s.style == PlotStyle::kLine) {
+      for (std::size_t i = 1; i < n; ++i)
+        draw_line(img, px(s.x[i - 1]), py(s.y[i - 1]), px(s.x[i]), py(s.y[i]), s.colour);
     }
-    if (plot.x.size() == 1)
-      fill_rect(img, px(plot.x[0]) - 2, py(plot.y[0]) - 2, px(plot.x[0]) + 2, py(plot.y[0]) + 2,
-                kBlue);
+    if (s.style == PlotStyle::kPoints || n == 1)
+      for (std::size_t i = 0; i < n; ++i) draw_point(img, px(s.x[i]), py(s.y[i]), s.colour);
+  }
+  // Legend, top left inside the axes.
+  int ly = y1 + 10;
+  for (const Series& s : all) {
+    if (s.label.empty()) continue;
+    const int lx = x0 + 14;
+    if (s.style == PlotStyle::kPoints)
+      draw_point(img, lx + 10, ly + 7, s.colour);
+    else
+      fill_rect(img, lx, ly + 6, lx + 20, ly + 8, s.colour);
+    draw_text(img, lx + 30, ly, s.label, kBlack);
+    ly += 22;
   }
   // Axes and titles.
   fill_rect(img, x0, y1, x0 + 1, y0, kBlack);
@@ -291,4 +347,4 @@ void write_plot_png(const Plot& plot, const std::filesystem::path& path,
   write_png(render_plot(plot), path, display_name);
 }
 
-}  // namespace mesorock::voxel
+}  // namespace mesorock::plot

@@ -1,0 +1,545 @@
+#include "pipeline/flow/sweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "mesorock/atomic_file.h"
+#include "mesorock/errors.h"
+#include "mesorock/plot.h"
+#include "mesorock/version.h"
+#include "pipeline/flow/observable_outputs.h"
+#include "pipeline/flow/progress.h"
+#include "pipeline/flow/viscosity_calibration.h"
+#include "sim/observables.h"
+
+namespace mesorock::pipeline {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kMillidarcyM2 = 9.869233e-16;  // 1 mD in m^2 (1 D = 9.869233e-13 m^2)
+
+void check_options(const SweepSample& s, const SweepOptions& o) {
+  if (o.forces.empty()) throw ConfigError("sweep: no driving forces given");
+  for (double g : o.forces)
+    if (!std::isfinite(g) || !(g > 0))
+      throw ConfigError("sweep: every driving force must be a positive number (got " +
+                        std::to_string(g) + ")");
+  if (o.axis < 0 || o.axis > 2) throw ConfigError("sweep: the flow axis must be x, y or z");
+  if (o.driven_types == 0) throw ConfigError("sweep: no driven type");
+  for (int t = 0; t < s.model.ntypes(); ++t) {
+    if (!((o.driven_types >> t) & 1u)) continue;
+    const std::string& name = s.model.types[static_cast<size_t>(t)].name;
+    if (s.model.types[static_cast<size_t>(t)].frozen)
+      throw ConfigError("sweep: driven type " + name + " is frozen");
+    for (const auto& r : s.model.rigid_slabs)
+      if (r.type == t) throw ConfigError("sweep: driven type " + name + " is a rigid slab");
+  }
+  if (s.model.body_force_profile != sim::BodyForceProfile::Uniform)
+    throw ConfigError("sweep: the scene's body force profile must be uniform");
+  if (!(o.fluid_density > 0)) throw ConfigError("sweep: the fluid density must be positive");
+  if (!(o.viscosity > 0)) throw ConfigError("sweep: the viscosity must be positive");
+  if (o.block_steps == 0 || o.sample_every == 0 || o.block_steps % o.sample_every != 0)
+    throw ConfigError("sweep: block steps must be a positive multiple of the sampling interval");
+  if (o.window < 2) throw ConfigError("sweep: the steady-state window needs at least 2 blocks");
+  if (o.measure_blocks < 2) throw ConfigError("sweep: measuring needs at least 2 blocks");
+  if (!(o.tolerance > 0)) throw ConfigError("sweep: the steady-state tolerance must be positive");
+  const std::uint64_t least =
+      o.warmup_steps + static_cast<std::uint64_t>(2 * o.window + o.measure_blocks) * o.block_steps;
+  if (o.max_steps < least)
+    throw ConfigError(
+        "sweep: max steps " + std::to_string(o.max_steps) +
+        " is less than warm-up + (2 window + measure) blocks = " + std::to_string(least));
+}
+
+double mean_of(const std::vector<double>& v, size_t from, size_t to) {
+  double s = 0;
+  for (size_t k = from; k < to; ++k) s += v[k];
+  return s / static_cast<double>(to - from);
+}
+
+// Standard error of the mean of v[from, to).
+double standard_error(const std::vector<double>& v, size_t from, size_t to) {
+  const double m = mean_of(v, from, to);
+  const double n = static_cast<double>(to - from);
+  double ss = 0;
+  for (size_t k = from; k < to; ++k) ss += (v[k] - m) * (v[k] - m);
+  return n > 1 ? std::sqrt(ss / (n - 1) / n) : 0.0;
+}
+
+std::string fmt(double v, int precision = 4) {
+  std::ostringstream s;
+  s << std::setprecision(precision) << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions& o) {
+  check_options(sample, o);
+  std::vector<double> forces = o.forces;
+  std::sort(forces.begin(), forces.end());
+  const double volume = sample.box.volume();
+  sim::BinGrid whole;  // one bin over the box, driven types only: its sum v is V J
+  whole.lo = sample.box.lo;
+  whole.hi = sample.box.hi;
+  whole.type_mask = o.driven_types;
+  const auto axis = static_cast<size_t>(o.axis);
+  const std::uint64_t least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
+  if (o.meter)
+    o.meter->add_total(static_cast<double>(sample.particles.size()) *
+                       static_cast<double>(forces.size()) *
+                       static_cast<double>(o.warmup_steps + least_blocks * o.block_steps));
+  std::vector<SweepPoint> points;
+  sim::ParticleSet start = sample.particles;
+  for (size_t k = 0; k < forces.size(); ++k) {
+    SweepPoint p;
+    p.force = forces[k];
+    p.gradient = o.fluid_density * p.force;
+    sim::Model model = sample.model;
+    for (int t = 0; t < model.ntypes(); ++t)
+      if ((o.driven_types >> t) & 1u) {
+        model.types[static_cast<size_t>(t)].body_force = {0, 0, 0};
+        model.types[static_cast<size_t>(t)].body_force[axis] = p.force;
+      }
+    model.seed = sample.model.seed + k;  // independent thermal noise at each point
+    auto sim =
+        sim::make_simulation(model, sample.box, o.chain ? start : sample.particles, o.dt, o.sim);
+    const std::string label = "point " + std::to_string(k + 1) + "/" +
+                              std::to_string(forces.size()) + " g = " + fmt(p.force, 3);
+    if (o.meter) o.meter->set_phase(label + ": warm-up");
+    sim->run(o.warmup_steps);
+    p.steps = o.warmup_steps;
+    std::vector<double>& J = p.block_flux;
+    size_t measure_from = 0;
+    const std::uint64_t per_block = o.block_steps / o.sample_every;
+    while (true) {
+      double sum = 0;
+      for (std::uint64_t s = 0; s < per_block; ++s) {
+        sim->run(o.sample_every);
+        sum += sim->bin_sums(whole)[sim::kBinVx + axis] / volume;
+      }
+      J.push_back(sum / static_cast<double>(per_block));
+      p.steps += o.block_steps;
+      if (!std::isfinite(J.back()))
+        throw NumericalError("sweep: " + label + ": the flow rate is not finite after " +
+                             std::to_string(p.steps) + " steps");
+      const size_t n = J.size(), w = static_cast<size_t>(o.window);
+      if (!p.steady && n >= 2 * w) {
+        const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
+        const double noise =
+            2 * std::hypot(standard_error(J, n - 2 * w, n - w), standard_error(J, n - w, n));
+        if (std::abs(m2 - m1) <= std::max(o.tolerance * std::abs(m2), noise)) {
+          p.steady = true;
+          p.steady_after = p.steps;
+          measure_from = n;
+        }
+      }
+      if (p.steady && J.size() - measure_from >= static_cast<size_t>(o.measure_blocks)) break;
+      if (p.steps + o.block_steps > o.max_steps) break;
+      if (o.meter) {
+        // Past the least plan (warm-up + 2 windows + measurement): one more block to expect.
+        if (J.size() >= least_blocks)
+          o.meter->add_total(static_cast<double>(sample.particles.size()) *
+                             static_cast<double>(o.block_steps));
+        o.meter->set_phase(label + ": block " + std::to_string(J.size()) +
+                           (p.steady ? ", steady, measuring" : ", waiting for a steady flow") +
+                           ", J = " + fmt(J.back(), 3));
+      }
+    }
+    if (!p.steady) measure_from = J.size() - std::min(J.size(), size_t(o.measure_blocks));
+    p.flux = mean_of(J, measure_from, J.size());
+    p.flux_error = standard_error(J, measure_from, J.size());
+    p.darcy_velocity = p.flux / o.fluid_density;
+    p.darcy_velocity_error = p.flux_error / o.fluid_density;
+    p.permeability = o.viscosity * p.darcy_velocity / p.gradient;
+    p.permeability_error =
+        std::abs(p.permeability) *
+        std::hypot(p.flux != 0 ? p.flux_error / p.flux : 0.0, o.viscosity_error / o.viscosity);
+    p.temperature = sim->kinetic_temperature();
+    if (o.chain) start = sim->particles();
+    points.push_back(std::move(p));
+  }
+  return points;
+}
+
+SweepFits fit_sweep(const std::vector<SweepPoint>& points, double viscosity,
+                    double viscosity_error) {
+  std::vector<double> G, q, e;
+  for (const auto& p : points) {
+    G.push_back(p.gradient);
+    q.push_back(p.darcy_velocity);
+    e.push_back(p.darcy_velocity_error);
+  }
+  SweepFits f;
+  f.darcy = fit_proportional(G, q, e);
+  f.k = viscosity * f.darcy.slope;
+  f.k_error =
+      std::abs(f.k) * std::hypot(f.darcy.slope_error / f.darcy.slope, viscosity_error / viscosity);
+  if (points.size() >= 2) f.line = fit_line(G, q, e);
+  if (points.size() >= 3) f.quadratic = fit_quadratic_through_origin(G, q, e);
+  return f;
+}
+
+// --------------------------------------------------------------------------------------------
+// The command.
+
+namespace {
+
+int parse_axis(const std::string& a) {
+  if (a == "x") return 0;
+  if (a == "y") return 1;
+  if (a == "z") return 2;
+  throw ConfigError("sweep: --axis must be x, y or z (got " + a + ")");
+}
+
+// The fluid density the scene's [[init]] blocks give the driven types (one value), if any.
+std::optional<double> density_from_scene(const Scene& scene, std::uint32_t driven) {
+  std::optional<double> found;
+  for (const auto& b : scene.init) {
+    if (b.kind == InitSpec::Kind::File) continue;
+    const int t = scene.model.type_index(b.type);
+    if (t < 0 || !((driven >> t) & 1u)) continue;
+    double v = 1;
+    for (int a = 0; a < 3; ++a) v *= b.hi[static_cast<size_t>(a)] - b.lo[static_cast<size_t>(a)];
+    const double rho = b.density ? *b.density : static_cast<double>(b.count.value_or(0)) / v;
+    if (found && std::abs(*found - rho) > 1e-9 * rho)
+      throw ConfigError(scene.path.string() +
+                        ": sweep: the driven types' [[init]] blocks have different densities (" +
+                        fmt(*found) + ", " + fmt(rho) + "): give --fluid-density");
+    found = rho;
+  }
+  return found;
+}
+
+}  // namespace
+
+nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
+  const std::string where = scene.path.string() + ": sweep";
+  if (scene.stages.empty()) throw ConfigError(where + ": the scene has no [[run]] stage");
+  const sim::Model& model = scene.model;
+  // Driven types and the flow axis.
+  std::uint32_t driven = 0;
+  if (!c.types.empty()) {
+    for (const auto& name : c.types) {
+      const int t = model.type_index(name);
+      if (t < 0) throw ConfigError(where + ": --types: no type named " + name);
+      driven |= 1u << t;
+    }
+  } else {
+    for (int t = 0; t < model.ntypes(); ++t) {
+      const auto& f = model.types[static_cast<size_t>(t)].body_force;
+      if (f[0] != 0 || f[1] != 0 || f[2] != 0) driven |= 1u << t;
+    }
+    if (driven == 0)
+      for (int t = 0; t < model.ntypes(); ++t) {
+        bool slab = false;
+        for (const auto& r : model.rigid_slabs) slab = slab || r.type == t;
+        if (!model.types[static_cast<size_t>(t)].frozen && !slab) driven |= 1u << t;
+      }
+  }
+  int axis = 0;
+  if (!c.axis.empty()) {
+    axis = parse_axis(c.axis);
+  } else {
+    double best = 0;
+    for (int t = 0; t < model.ntypes(); ++t)
+      if ((driven >> t) & 1u)
+        for (int a = 0; a < 3; ++a) {
+          const double v = std::abs(model.types[static_cast<size_t>(t)].body_force[a]);
+          if (v > best) best = v, axis = a;
+        }
+  }
+  for (double g : c.forces)
+    if (!std::isfinite(g) || !(g > 0))
+      throw ConfigError(where + ": every driving force must be a positive number (got " + fmt(g) +
+                        ")");
+  for (int t = 0; t < model.ntypes(); ++t) {
+    if (!((driven >> t) & 1u)) continue;
+    bool slab = false;
+    for (const auto& r : model.rigid_slabs) slab = slab || r.type == t;
+    if (model.types[static_cast<size_t>(t)].frozen || slab)
+      throw ConfigError(where + ": driven type " + model.types[static_cast<size_t>(t)].name +
+                        " does not flow (frozen or a rigid slab)");
+  }
+  std::optional<double> density = c.fluid_density;
+  if (!density) density = density_from_scene(scene, driven);
+  if (!density)
+    throw ConfigError(where +
+                      ": give --fluid-density (the fluid's number density in the pores; no "
+                      "[[init]] block of a driven type says)");
+  if (!(*density > 0)) throw ConfigError(where + ": --fluid-density must be positive");
+
+  ProgressMeter meter("rockflow sweep", std::cerr, c.progress);
+  SweepOptions o = c.run;
+  o.sim.on_run = [&meter](std::uint64_t steps, std::size_t n) { meter.advance(steps, n); };
+  o.meter = &meter;
+  o.axis = axis;
+  o.driven_types = driven;
+  o.fluid_density = *density;
+  o.forces = c.forces;
+  o.dt = scene.stages.back().dt;
+
+  // Viscosity: given, or calibrated (cached) for the driven fluid.
+  nlohmann::json viscosity_json;
+  if (c.viscosity) {
+    o.viscosity = *c.viscosity;
+    o.viscosity_error = c.viscosity_error.value_or(0.0);
+    viscosity_json = {{"value", o.viscosity}, {"error", o.viscosity_error}, {"source", "given"}};
+  } else {
+    int first = -1;
+    for (int t = 0; t < model.ntypes() && first < 0; ++t)
+      if ((driven >> t) & 1u) first = t;
+    const sim::PairSpec p = model.pair(first, first);
+    for (int a = 0; a < model.ntypes(); ++a)
+      for (int b = 0; b < model.ntypes(); ++b)
+        if (((driven >> a) & 1u) && ((driven >> b) & 1u)) {
+          const sim::PairSpec& q = model.pair(a, b);
+          if (q.A != p.A || q.B != p.B || q.gamma != p.gamma)
+            throw ConfigError(where +
+                              ": the driven types are not one fluid (their pair parameters "
+                              "differ), so no single viscosity calibration fits: give "
+                              "--viscosity");
+        }
+    FluidSpec fluid;
+    fluid.conservative = model.conservative;
+    fluid.density_kernel = model.density_kernel;
+    fluid.A = p.A;
+    fluid.B = p.B;
+    fluid.gamma = p.gamma;
+    fluid.rd = model.rd;
+    fluid.kBT = model.kBT;
+    fluid.lambda = model.lambda;
+    fluid.density = *density;
+    fluid.dt = o.dt;
+    fluid.precision = model.precision;
+    if (!model.thermostat || !(p.gamma > 0))
+      throw ConfigError(where +
+                        ": the viscosity calibration needs the thermostat: give --viscosity");
+    const fs::path cache =
+        c.viscosity_cache.empty() ? default_viscosity_cache() : c.viscosity_cache;
+    const CalibratedViscosity v =
+        calibrated_viscosity(fluid, parse_calibration_size(c.calibration), cache, o.sim, &meter);
+    o.viscosity = v.value;
+    o.viscosity_error = v.error;
+    viscosity_json = {{"value", v.value},
+                      {"error", v.error},
+                      {"source", v.source},
+                      {"cache_file", v.cache_file.string()},
+                      {"calibration", v.record}};
+  }
+
+  SweepSample sample{scene.model, scene.box, build_initial_particles(scene)};
+  std::size_t fluid_count = 0;
+  for (auto t : sample.particles.type) fluid_count += (driven >> t) & 1u;
+  const std::vector<SweepPoint> points = run_sweep(sample, o);
+  const SweepFits fits = fit_sweep(points, o.viscosity, o.viscosity_error);
+
+  const std::optional<sim::UnitSystem> units =
+      scene.units.nm_per_rc > 0 ? std::optional<sim::UnitSystem>(unit_system_of(scene.units))
+                                : std::nullopt;
+  const double nm2 = units ? scene.units.nm_per_rc * scene.units.nm_per_rc : 0;
+  const double mD = units ? units->permeability_m2(1.0) / kMillidarcyM2 : 0;
+  auto k_json = [&](double k, double e) {
+    nlohmann::json j = {{"rc2", k}, {"rc2_error", e}};
+    if (units) {
+      j["nm2"] = k * nm2;
+      j["nm2_error"] = e * nm2;
+      j["mD"] = k * mD;
+      j["mD_error"] = e * mD;
+    }
+    return j;
+  };
+
+  std::error_code ec;
+  fs::create_directories(c.out_dir, ec);
+  if (ec) throw IoError(c.out_dir.string() + ": cannot create output folder: " + ec.message());
+
+  // sweep.csv and sweep_blocks.csv
+  {
+    std::ostringstream s;
+    s << std::setprecision(10);
+    s << "# mesorock " << kVersion << " (" << kGitCommit << "), rockflow sweep of "
+      << scene.path.string() << "\n";
+    s << "# reduced units (rc = m = kBT = 1): g per particle, G = n_f g with n_f = " << *density
+      << ", J = sum v / V_total, q = J / n_f (Darcy velocity), k = mu q / G with mu = "
+      << o.viscosity << " +- " << o.viscosity_error
+      << "; errors one standard error; k_nm2 and k_mD need [units] nm_per_rc"
+      << (units ? " (" + fmt(scene.units.nm_per_rc) + " nm per rc)" : std::string(" (not given)"))
+      << "\n";
+    s << "point,force_g,gradient_G,flux_J,flux_J_error,darcy_velocity_q,darcy_velocity_q_error,"
+         "k_rc2,k_rc2_error,k_nm2,k_nm2_error,k_mD,k_mD_error,steady,steady_after_steps,steps,"
+         "temperature\n";
+    for (size_t k = 0; k < points.size(); ++k) {
+      const SweepPoint& p = points[k];
+      s << k + 1 << "," << p.force << "," << p.gradient << "," << p.flux << "," << p.flux_error
+        << "," << p.darcy_velocity << "," << p.darcy_velocity_error << "," << p.permeability << ","
+        << p.permeability_error << ",";
+      if (units)
+        s << p.permeability * nm2 << "," << p.permeability_error * nm2 << "," << p.permeability * mD
+          << "," << p.permeability_error * mD;
+      else
+        s << ",,,";
+      s << "," << (p.steady ? 1 : 0) << "," << p.steady_after << "," << p.steps << ","
+        << p.temperature << "\n";
+    }
+    write_text_atomically(c.out_dir / "sweep.csv", s.str());
+    std::ostringstream b;
+    b << std::setprecision(10);
+    b << "# flux J = sum v / V_total of each block of " << o.block_steps
+      << " steps after the warm-up of " << o.warmup_steps << " steps\n";
+    b << "point,force_g,block,steps,flux_J\n";
+    for (size_t k = 0; k < points.size(); ++k)
+      for (size_t j = 0; j < points[k].block_flux.size(); ++j)
+        b << k + 1 << "," << points[k].force << "," << j + 1 << ","
+          << o.warmup_steps + (j + 1) * o.block_steps << "," << points[k].block_flux[j] << "\n";
+    write_text_atomically(c.out_dir / "sweep_blocks.csv", b.str());
+  }
+
+  // sweep.json
+  nlohmann::json pj = nlohmann::json::array();
+  for (const auto& p : points)
+    pj.push_back({{"force_g", p.force},
+                  {"gradient_G", p.gradient},
+                  {"flux_J", p.flux},
+                  {"flux_J_error", p.flux_error},
+                  {"darcy_velocity_q", p.darcy_velocity},
+                  {"darcy_velocity_q_error", p.darcy_velocity_error},
+                  {"permeability", k_json(p.permeability, p.permeability_error)},
+                  {"steady", p.steady},
+                  {"steady_after_steps", p.steady_after},
+                  {"steps", p.steps},
+                  {"temperature", p.temperature}});
+  nlohmann::json fits_json = {
+      {"darcy",
+       {{"model", "q = (k / mu) G"},
+        {"slope", fits.darcy.slope},
+        {"slope_error", fits.darcy.slope_error},
+        {"permeability", k_json(fits.k, fits.k_error)},
+        {"chi2", fits.darcy.chi2},
+        {"dof", fits.darcy.dof},
+        {"chi2_99", chi2_99(fits.darcy.dof)},
+        {"consistent", fits.darcy.dof < 1 || fits.darcy.chi2 <= chi2_99(fits.darcy.dof)}}}};
+  if (fits.line)
+    fits_json["line"] = {{"model", "q = a + b G"},
+                         {"intercept", fits.line->intercept},
+                         {"intercept_error", fits.line->intercept_error},
+                         {"slope", fits.line->slope},
+                         {"slope_error", fits.line->slope_error},
+                         {"chi2", fits.line->chi2},
+                         {"dof", fits.line->dof}};
+  double deviation = 0, deviation_error = 0;
+  if (fits.quadratic) {
+    const QuadraticFit& qf = *fits.quadratic;
+    const double Gmax = points.back().gradient;
+    deviation = qf.departure(Gmax);
+    deviation_error = qf.departure_error(Gmax);
+    fits_json["quadratic"] = {
+        {"model", "q = c1 G + c2 G^2"},
+        {"c1", qf.c1},
+        {"c1_error", qf.c1_error},
+        {"c2", qf.c2},
+        {"c2_error", qf.c2_error},
+        {"covariance", qf.covariance},
+        {"chi2", qf.chi2},
+        {"dof", qf.dof},
+        {"permeability_at_zero_gradient", k_json(o.viscosity * qf.c1, o.viscosity * qf.c1_error)},
+        {"forchheimer_beta", -qf.c2 / (qf.c1 * qf.c1 * qf.c1)},
+        {"forchheimer_note",
+         "to first order G = q / c1 + beta q^2 with beta = -c2 / c1^3 (reduced units)"},
+        {"deviation_at_largest_gradient", deviation},
+        {"deviation_error", deviation_error},
+        {"deviation_significant", std::abs(deviation) > 2 * deviation_error},
+        {"deviation_note",
+         "c2 G_max / c1: relative departure of the flow rate from the Darcy line at the "
+         "largest gradient; significant when beyond two standard errors"}};
+  }
+  nlohmann::json summary = {
+      {"mesorock_version", kVersion},
+      {"git_commit", kGitCommit},
+      {"command", "rockflow sweep"},
+      {"scene_file", scene.path.string()},
+      {"scene_name", scene.name},
+      {"backend", sim::to_string(o.sim.backend)},
+      {"precision", sim::to_string(model.precision)},
+      {"flow_axis", std::string(1, "xyz"[axis])},
+      {"driven_types", nlohmann::json::array()},
+      {"fluid_particles", fluid_count},
+      {"fluid_density", *density},
+      {"porosity_estimate", static_cast<double>(fluid_count) / (*density * scene.box.volume())},
+      {"viscosity", viscosity_json},
+      {"definitions",
+       "G = n_f g (pressure-gradient equivalent of the body force), J = sum v / V_total, "
+       "q = J / n_f (Darcy velocity), k = mu q / G; docs/permeability.md"},
+      {"steady_state",
+       {{"warmup_steps", o.warmup_steps},
+        {"block_steps", o.block_steps},
+        {"sample_every", o.sample_every},
+        {"window_blocks", o.window},
+        {"tolerance", o.tolerance},
+        {"measure_blocks", o.measure_blocks},
+        {"max_steps", o.max_steps},
+        {"chained", o.chain},
+        {"rule",
+         "steady when the mean flux of the last window blocks agrees with the window before "
+         "within the tolerance (relative) or two combined standard errors; then measure_blocks "
+         "blocks give the flux and its standard error"}}},
+      {"dt", o.dt},
+      {"points", pj},
+      {"fits", fits_json},
+      {"units", units_json(units)},
+      {"particle_steps", meter.work()},
+      {"wall_seconds", meter.seconds()},
+      {"outputs", {"sweep.csv", "sweep_blocks.csv", "sweep.json", "sweep.png"}},
+      {"scene", scene.source_text}};
+  for (int t = 0; t < model.ntypes(); ++t)
+    if ((driven >> t) & 1u)
+      summary["driven_types"].push_back(model.types[static_cast<size_t>(t)].name);
+  write_text_atomically(c.out_dir / "sweep.json", summary.dump(2) + "\n");
+
+  // sweep.png: q against G with error bars, the Darcy line and the quadratic.
+  {
+    plot::Plot pl;
+    pl.title = "Darcy velocity vs pressure gradient (" + scene.name + ")";
+    pl.x_label = "G = n g  (kBT / rc^4)";
+    pl.y_label = "q  (rc / tau)";
+    pl.style = plot::PlotStyle::kPoints;
+    pl.label = "measured (1 s.e.)";
+    pl.x_from_zero = true;
+    for (const auto& p : points) {
+      pl.x.push_back(p.gradient);
+      pl.y.push_back(p.darcy_velocity);
+      pl.y_error.push_back(p.darcy_velocity_error);
+    }
+    const double Gmax = points.back().gradient * 1.05;
+    plot::Series darcy;
+    std::string k_text = "Darcy: k = " + fmt(fits.k, 3) + " rc^2";
+    if (units) k_text += " = " + fmt(fits.k * mD, 3) + " mD";
+    darcy.label = k_text;
+    darcy.x = {0, Gmax};
+    darcy.y = {0, fits.darcy.slope * Gmax};
+    pl.more.push_back(darcy);
+    if (fits.quadratic) {
+      plot::Series quad;
+      quad.label = "quadratic: deviation " + fmt(100 * deviation, 2) + " +- " +
+                   fmt(100 * deviation_error, 2) + " %";
+      for (int i = 0; i <= 40; ++i) {
+        const double G = Gmax * i / 40.0;
+        quad.x.push_back(G);
+        quad.y.push_back(fits.quadratic->c1 * G + fits.quadratic->c2 * G * G);
+      }
+      pl.more.push_back(quad);
+    }
+    plot::write_plot_png(pl, c.out_dir / "sweep.png", (c.out_dir / "sweep.png").string());
+  }
+  meter.finish("k = " + fmt(fits.k) + " +- " + fmt(fits.k_error, 2) + " rc^2" +
+               (units ? " (" + fmt(fits.k * mD) + " mD)" : std::string()) + "; outputs in " +
+               c.out_dir.string());
+  return summary;
+}
+
+}  // namespace mesorock::pipeline

@@ -1,0 +1,113 @@
+#pragma once
+// Permeability sweeps (`rockflow sweep`, docs/permeability.md): steady body-force flow through a
+// prepared sample at several driving strengths, each run to a detected steady state, the flow
+// rate measured with an error bar, the apparent permeability k = mu q / G, and fits of Darcy's
+// law and of a Forchheimer-type quadratic.
+//
+// Definitions. A body force g per driven particle (m = 1) along the flow axis is, for the Stokes
+// equations of the fluid, the same as a mean pressure gradient G = n_f g (n_f the fluid's number
+// density): write p = p' - n_f g x. The number flux density J = sum_i v_i / V_total over the
+// driven particles, and the Darcy (superficial) velocity q = J / n_f: the volumetric flux per
+// unit of the sample's total cross-section. Then k = mu q / G = mu J / (n_f^2 g), with mu the
+// fluid's shear viscosity. The fluid's volume V_fluid = N_f / n_f gives the porosity estimate
+// phi = V_fluid / V_total.
+//
+// Steady state. After `warmup_steps`, J is averaged over blocks of `block_steps` (sampled every
+// `sample_every`). The flow is steady when the mean of the last `window` blocks agrees with the
+// mean of the `window` blocks before within `tolerance` (relative) or within two combined
+// standard errors (noise-dominated flows). Then `measure_blocks` further blocks give J and its
+// error (the standard error of the block means; blocks are meant to be longer than the flow's
+// correlation time). A point that is not steady after `max_steps` is measured on its last
+// blocks and flagged.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "pipeline/flow/darcy_fit.h"
+#include "pipeline/scene.h"
+#include "sim/model.h"
+#include "sim/simulation.h"
+#include "sim/units.h"
+
+namespace mesorock::pipeline {
+
+class ProgressMeter;
+
+struct SweepOptions {
+  std::vector<double> forces;      // g per driven particle; run in ascending order
+  int axis = 0;                    // flow axis
+  std::uint32_t driven_types = 0;  // bit t: type t is driven and counted
+  double fluid_density = 0;        // n_f
+  double viscosity = 0, viscosity_error = 0;
+  double dt = 0.01;
+  std::uint64_t warmup_steps = 2000;
+  std::uint64_t block_steps = 1000;
+  std::uint64_t sample_every = 10;
+  int window = 3;
+  double tolerance = 0.05;
+  int measure_blocks = 10;
+  std::uint64_t max_steps = 100000;  // per driving strength, warm-up included
+  // Each point starts from the last point's final state (less warm-up); false: all from the
+  // sample's initial particles.
+  bool chain = true;
+  sim::SimulationOptions sim;
+  ProgressMeter* meter = nullptr;
+};
+
+struct SweepPoint {
+  double force = 0;                                     // g
+  double gradient = 0;                                  // G = n_f g
+  double flux = 0, flux_error = 0;                      // J
+  double darcy_velocity = 0, darcy_velocity_error = 0;  // q = J / n_f
+  double permeability = 0, permeability_error = 0;      // k = mu q / G, rc^2 (mu's error too)
+  bool steady = false;
+  std::uint64_t steady_after = 0;  // steps of this point when the steady state was detected
+  std::uint64_t steps = 0;         // steps run for this point
+  double temperature = 0;          // kinetic temperature at the end (flow included)
+  std::vector<double> block_flux;  // J of every block after the warm-up, in order
+};
+
+struct SweepSample {
+  sim::Model model;
+  sim::BoxSpec box;
+  sim::ParticleSet particles;
+};
+
+// Checks the options against the sample (ConfigError naming the problem) and runs the sweep.
+std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions& options);
+
+// Darcy through the origin (q = (k / mu) G), a line with an intercept, and the quadratic
+// q = c1 G + c2 G^2 (Forchheimer-type: to first order G = q / c1 - (c2 / c1^3) q^2).
+struct SweepFits {
+  LineFit darcy;                          // slope = k / mu
+  std::optional<LineFit> line;            // 2+ points
+  std::optional<QuadraticFit> quadratic;  // 3+ points
+  double k = 0, k_error = 0;              // mu x slope, error with mu's
+};
+SweepFits fit_sweep(const std::vector<SweepPoint>& points, double viscosity,
+                    double viscosity_error);
+
+// --------------------------------------------------------------------------------------------
+// The command: scene -> sweep -> OUT/sweep.csv, sweep_blocks.csv, sweep.json, sweep.png.
+struct SweepCommand {
+  std::filesystem::path out_dir = "out";
+  std::vector<double> forces;
+  std::string axis;                // "" = from the scene's body force, else x
+  std::vector<std::string> types;  // empty = the scene's body-force types, else every mobile one
+  std::optional<double> fluid_density;
+  std::optional<double> viscosity;  // given: no calibration
+  std::optional<double> viscosity_error;
+  std::string calibration = "small";      // tiny | small | full
+  std::filesystem::path viscosity_cache;  // "" = default_viscosity_cache()
+  SweepOptions run;                       // steady-state settings, simulation options
+  bool progress = true;
+};
+
+// Runs the sweep a scene describes and writes the outputs; returns the summary (sweep.json).
+nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& command);
+
+}  // namespace mesorock::pipeline

@@ -1,0 +1,281 @@
+#include "sim/checkpoint.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+
+#include "mesorock/atomic_file.h"
+#include "mesorock/errors.h"
+#include "mesorock/version.h"
+#include "sim/hdf5_util.h"
+
+namespace mesorock::sim {
+
+namespace fs = std::filesystem;
+using namespace hdf5_util;
+
+ParticleSet SimulationState::particles() const {
+  const size_t n = size();
+  ParticleSet p;
+  for (auto* a : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz}) a->resize(n);
+  p.type.resize(n);
+  p.id.resize(n);
+  for (size_t k = 0; k < n; ++k) {
+    const size_t o = static_cast<size_t>(origin[k]);
+    p.x[o] = x[k], p.y[o] = y[k], p.z[o] = z[k];
+    p.vx[o] = vx[k], p.vy[o] = vy[k], p.vz[o] = vz[k];
+    p.type[o] = type[k];
+    p.id[o] = id[k];
+  }
+  return p;
+}
+
+void SimulationState::check() const {
+  const size_t n = size();
+  for (const auto* a : {&y, &z, &vx, &vy, &vz, &fx, &fy, &fz, &rho})
+    if (a->size() != n) throw ConfigError("state: per-particle arrays differ in length");
+  for (const auto* a : {&vex, &vey, &vez, &bvf})
+    if (!a->empty() && a->size() != n)
+      throw ConfigError("state: per-particle arrays differ in length");
+  if (type.size() != n || origin.size() != n || id.size() != n)
+    throw ConfigError("state: per-particle arrays differ in length");
+  std::vector<char> seen(n, 0);
+  for (std::int32_t o : origin) {
+    if (o < 0 || static_cast<size_t>(o) >= n || seen[static_cast<size_t>(o)])
+      throw ConfigError("state: the original-order map is not a permutation");
+    seen[static_cast<size_t>(o)] = 1;
+  }
+  if (!(dt > 0)) throw ConfigError("state: dt must be positive");
+}
+
+namespace {
+
+void check_name(const std::string& name, const std::string& file) {
+  if (name.empty() || name.find('/') != std::string::npos || name == ".")
+    throw IoError(file + ": checkpoint entry name '" + name + "' is not a valid HDF5 name");
+}
+
+template <class T>
+void write_array(hid_t group, const std::string& name, const std::string& where, hid_t type,
+                 const std::vector<T>& data, const std::string& file) {
+  write_dataset(group, name.c_str(), where, type, type, {static_cast<hsize_t>(data.size())},
+                data.data(), file);
+}
+
+void write_text(hid_t group, const std::string& name, const std::string& where,
+                const std::string& text, const std::string& file) {
+  write_dataset(group, name.c_str(), where, H5T_NATIVE_UINT8, H5T_NATIVE_UINT8,
+                {static_cast<hsize_t>(text.size())}, text.data(), file);
+}
+
+Handle open_group(hid_t parent, const char* name, const std::string& where,
+                  const std::string& file) {
+  if (H5Lexists(parent, name, H5P_DEFAULT) <= 0) fail(file, where, "missing");
+  return checked(H5Gopen2(parent, name, H5P_DEFAULT), H5Gclose, file, where, "cannot open group");
+}
+
+// A 1-D dataset of `want` class read into memory type `mem` (any length).
+template <class T>
+std::vector<T> read_array(hid_t group, const std::string& name, const std::string& where, hid_t mem,
+                          H5T_class_t want, const std::string& file) {
+  if (H5Lexists(group, name.c_str(), H5P_DEFAULT) <= 0) fail(file, where, "missing");
+  Handle ds = checked(H5Dopen2(group, name.c_str(), H5P_DEFAULT), H5Dclose, file, where,
+                      "cannot open dataset");
+  Handle type = checked(H5Dget_type(ds.get()), H5Tclose, file, where, "cannot read datatype");
+  if (H5Tget_class(type.get()) != want)
+    fail(file, where, std::string("must be ") + class_name(want));
+  Handle space = checked(H5Dget_space(ds.get()), H5Sclose, file, where, "cannot read dataspace");
+  const auto dims = extent(space.get(), file, where);
+  if (dims.size() != 1) fail(file, where, "expected a 1-D dataset, got " + dims_text(dims));
+  std::vector<T> out(static_cast<size_t>(dims[0]));
+  if (!out.empty())
+    check(H5Dread(ds.get(), mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), file, where,
+          "read failed");
+  return out;
+}
+
+std::string read_text(hid_t group, const std::string& name, const std::string& where,
+                      const std::string& file) {
+  const auto bytes =
+      read_array<std::uint8_t>(group, name, where, H5T_NATIVE_UINT8, H5T_INTEGER, file);
+  return std::string(bytes.begin(), bytes.end());
+}
+
+template <class T>
+T read_scalar(hid_t group, const std::string& name, const std::string& where, hid_t mem,
+              H5T_class_t want, const std::string& file) {
+  const auto v = read_array<T>(group, name, where, mem, want, file);
+  if (v.size() != 1) fail(file, where, "expected one value");
+  return v[0];
+}
+
+std::vector<std::string> member_names(hid_t group, const std::string& where,
+                                      const std::string& file) {
+  H5G_info_t info;
+  check(H5Gget_info(group, &info), file, where, "cannot list group");
+  std::vector<std::string> names;
+  for (hsize_t k = 0; k < info.nlinks; ++k) {
+    const ssize_t len =
+        H5Lget_name_by_idx(group, ".", H5_INDEX_NAME, H5_ITER_INC, k, nullptr, 0, H5P_DEFAULT);
+    if (len < 0) fail(file, where, "cannot list group");
+    std::string name(static_cast<size_t>(len) + 1, '\0');
+    H5Lget_name_by_idx(group, ".", H5_INDEX_NAME, H5_ITER_INC, k, name.data(), name.size(),
+                       H5P_DEFAULT);
+    name.resize(static_cast<size_t>(len));
+    names.push_back(name);
+  }
+  return names;
+}
+
+const char* const kRealNames[14] = {"x",   "y",   "z",  "vx", "vy", "vz",  "vex",
+                                    "vey", "vez", "fx", "fy", "fz", "rho", "bvf"};
+
+std::vector<double> SimulationState::*const kRealArrays[14] = {
+    &SimulationState::x,   &SimulationState::y,  &SimulationState::z,   &SimulationState::vx,
+    &SimulationState::vy,  &SimulationState::vz, &SimulationState::vex, &SimulationState::vey,
+    &SimulationState::vez, &SimulationState::fx, &SimulationState::fy,  &SimulationState::fz,
+    &SimulationState::rho, &SimulationState::bvf};
+
+constexpr int kSlabFields = 7;
+
+}  // namespace
+
+void write_checkpoint(const fs::path& path, const CheckpointFile& c) {
+  const std::string file = path.string();
+  c.state.check();
+  for (const auto& [name, text] : c.texts) check_name(name, file);
+  for (const auto& [name, v] : c.numbers) check_name(name, file);
+  silence_hdf5_errors();
+  write_atomically(path, [&](const fs::path& tmp) {
+    Handle f = create_file(tmp, file);
+    {
+      Handle meta = create_group(f.get(), "meta", "/meta", file);
+      const std::pair<const char*, std::string> texts[] = {
+          {"format", "mesorock-checkpoint"},
+          {"format_version", std::to_string(kCheckpointFormatVersion)},
+          {"mesorock_version", kVersion},
+          {"git_commit", kGitCommit},
+          {"created_by", c.created_by},
+          {"scene_path", c.scene_path},
+          {"scene_text", c.scene_text},
+          {"parameters", c.parameters_json}};
+      for (const auto& [name, text] : texts)
+        write_text(meta.get(), name, std::string("/meta/") + name, text, file);
+    }
+    {
+      const SimulationState& s = c.state;
+      Handle g = create_group(f.get(), "checkpoint", "/checkpoint", file);
+      for (int a = 0; a < 14; ++a)
+        write_array(g.get(), kRealNames[a], std::string("/checkpoint/") + kRealNames[a],
+                    H5T_NATIVE_DOUBLE, s.*kRealArrays[a], file);
+      write_array(g.get(), "type", "/checkpoint/type", H5T_NATIVE_INT32, s.type, file);
+      write_array(g.get(), "origin", "/checkpoint/origin", H5T_NATIVE_INT32, s.origin, file);
+      write_array(g.get(), "id", "/checkpoint/id", H5T_NATIVE_INT64, s.id, file);
+      std::vector<double> slabs;
+      for (const RigidSlabBody& b : s.slabs)
+        for (double v : {double(b.type), double(b.axis), b.applied_force, b.mass, b.velocity,
+                         b.half_velocity, b.force})
+          slabs.push_back(v);
+      write_array(g.get(), "slabs", "/checkpoint/slabs", H5T_NATIVE_DOUBLE, slabs, file);
+      write_array(g.get(), "step", "/checkpoint/step", H5T_NATIVE_UINT64,
+                  std::vector<std::uint64_t>{s.step}, file);
+      write_array(g.get(), "dt", "/checkpoint/dt", H5T_NATIVE_DOUBLE, std::vector<double>{s.dt},
+                  file);
+      write_array(g.get(), "wall_corrections", "/checkpoint/wall_corrections", H5T_NATIVE_UINT64,
+                  std::vector<std::uint64_t>{s.wall_corrections}, file);
+      write_text(g.get(), "precision", "/checkpoint/precision", to_string(s.precision), file);
+    }
+    {
+      Handle run = create_group(f.get(), "run", "/run", file);
+      Handle text = create_group(run.get(), "text", "/run/text", file);
+      for (const auto& [name, t] : c.texts)
+        write_text(text.get(), name, "/run/text/" + name, t, file);
+      Handle numbers = create_group(run.get(), "numbers", "/run/numbers", file);
+      for (const auto& [name, v] : c.numbers)
+        write_array(numbers.get(), name, "/run/numbers/" + name, H5T_NATIVE_DOUBLE, v, file);
+    }
+    if (!f.close()) fail(file, "", "write failed");
+  });
+}
+
+CheckpointFile read_checkpoint(const fs::path& path) {
+  const std::string file = path.string();
+  silence_hdf5_errors();
+  if (!fs::exists(path)) throw IoError(file + ": no checkpoint here");
+  Handle f = checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, file, "",
+                     "cannot open as HDF5");
+  CheckpointFile c;
+  {
+    Handle meta = open_group(f.get(), "meta", "/meta", file);
+    if (read_text(meta.get(), "format", "/meta/format", file) != "mesorock-checkpoint")
+      fail(file, "/meta/format", "not a mesorock checkpoint");
+    const std::string version =
+        read_text(meta.get(), "format_version", "/meta/format_version", file);
+    if (version != std::to_string(kCheckpointFormatVersion))
+      fail(file, "/meta/format_version",
+           "format version " + version + ", this build reads " +
+               std::to_string(kCheckpointFormatVersion));
+    c.mesorock_version = read_text(meta.get(), "mesorock_version", "/meta/mesorock_version", file);
+    c.git_commit = read_text(meta.get(), "git_commit", "/meta/git_commit", file);
+    c.created_by = read_text(meta.get(), "created_by", "/meta/created_by", file);
+    c.scene_path = read_text(meta.get(), "scene_path", "/meta/scene_path", file);
+    c.scene_text = read_text(meta.get(), "scene_text", "/meta/scene_text", file);
+    c.parameters_json = read_text(meta.get(), "parameters", "/meta/parameters", file);
+  }
+  {
+    SimulationState& s = c.state;
+    Handle g = open_group(f.get(), "checkpoint", "/checkpoint", file);
+    for (int a = 0; a < 14; ++a)
+      s.*kRealArrays[a] =
+          read_array<double>(g.get(), kRealNames[a], std::string("/checkpoint/") + kRealNames[a],
+                             H5T_NATIVE_DOUBLE, H5T_FLOAT, file);
+    s.type = read_array<std::int32_t>(g.get(), "type", "/checkpoint/type", H5T_NATIVE_INT32,
+                                      H5T_INTEGER, file);
+    s.origin = read_array<std::int32_t>(g.get(), "origin", "/checkpoint/origin", H5T_NATIVE_INT32,
+                                        H5T_INTEGER, file);
+    s.id = read_array<std::int64_t>(g.get(), "id", "/checkpoint/id", H5T_NATIVE_INT64, H5T_INTEGER,
+                                    file);
+    const auto slabs = read_array<double>(g.get(), "slabs", "/checkpoint/slabs", H5T_NATIVE_DOUBLE,
+                                          H5T_FLOAT, file);
+    if (slabs.size() % kSlabFields != 0) fail(file, "/checkpoint/slabs", "wrong length");
+    for (size_t k = 0; k + kSlabFields <= slabs.size(); k += kSlabFields) {
+      RigidSlabBody b;
+      b.type = static_cast<int>(slabs[k]);
+      b.axis = static_cast<int>(slabs[k + 1]);
+      b.applied_force = slabs[k + 2];
+      b.mass = slabs[k + 3];
+      b.velocity = slabs[k + 4];
+      b.half_velocity = slabs[k + 5];
+      b.force = slabs[k + 6];
+      s.slabs.push_back(b);
+    }
+    s.step = read_scalar<std::uint64_t>(g.get(), "step", "/checkpoint/step", H5T_NATIVE_UINT64,
+                                        H5T_INTEGER, file);
+    s.dt = read_scalar<double>(g.get(), "dt", "/checkpoint/dt", H5T_NATIVE_DOUBLE, H5T_FLOAT, file);
+    s.wall_corrections =
+        read_scalar<std::uint64_t>(g.get(), "wall_corrections", "/checkpoint/wall_corrections",
+                                   H5T_NATIVE_UINT64, H5T_INTEGER, file);
+    const std::string precision = read_text(g.get(), "precision", "/checkpoint/precision", file);
+    if (precision != "single" && precision != "double")
+      fail(file, "/checkpoint/precision", "must be single or double (got " + precision + ")");
+    s.precision = precision == "single" ? Precision::Single : Precision::Double;
+    try {
+      s.check();
+    } catch (const ConfigError& e) {
+      fail(file, "/checkpoint", e.what());
+    }
+  }
+  {
+    Handle run = open_group(f.get(), "run", "/run", file);
+    Handle text = open_group(run.get(), "text", "/run/text", file);
+    for (const std::string& name : member_names(text.get(), "/run/text", file))
+      c.texts[name] = read_text(text.get(), name, "/run/text/" + name, file);
+    Handle numbers = open_group(run.get(), "numbers", "/run/numbers", file);
+    for (const std::string& name : member_names(numbers.get(), "/run/numbers", file))
+      c.numbers[name] = read_array<double>(numbers.get(), name, "/run/numbers/" + name,
+                                           H5T_NATIVE_DOUBLE, H5T_FLOAT, file);
+  }
+  return c;
+}
+
+}  // namespace mesorock::sim

@@ -1,0 +1,76 @@
+#pragma once
+// Checkpoints: the solver state a run needs to continue bit for bit, and an HDF5 file that holds
+// it together with whatever the caller needs to continue its own outputs (thermo rows so far,
+// time series, accumulators), written atomically (temporary file + rename).
+//
+// Why the storage order: engines keep particles sorted by cell with a stable sort, and every
+// force sum runs in storage order. A state saved in the caller's original order and re-sorted
+// on resume would put particles of one cell in a different order, change the order of the force
+// sums, and drift from the uninterrupted run at round-off. So the state is the engine's storage
+// with the map back to the original order (`origin`), plus the forces of the last force pass
+// (the next step's first kick needs them; recomputing them would also rerun the wall model's
+// corrector). The pair random numbers are keyed by (seed, step, ids): no generator state.
+//
+// File layout (every entry is a 1-D dataset; texts are uint8 byte arrays):
+//   /meta/format ("mesorock-checkpoint"), format_version ("1"), mesorock_version, git_commit,
+//         created_by, scene_path, scene_text (the scene verbatim), parameters (JSON text)
+//   /checkpoint/x y z vx vy vz vex vey vez fx fy fz rho bvf   float64 [N] (vex.. and bvf may be
+//         empty); a single-precision run's values widen to double exactly
+//   /checkpoint/type int32 [N], origin int32 [N], id int64 [N]
+//   /checkpoint/slabs float64 [7 per slab]: type, axis, applied_force, mass, velocity,
+//         half_velocity, force
+//   /checkpoint/step uint64 [1], dt float64 [1], wall_corrections uint64 [1], precision (text)
+//   /run/text/NAME     the caller's texts (CSV rows so far, JSON)
+//   /run/numbers/NAME  float64 [k], the caller's numbers (series, accumulators)
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "sim/model.h"
+#include "sim/rigid_slabs.h"
+
+namespace mesorock::sim {
+
+struct SimulationState {
+  Precision precision = Precision::Double;
+  std::uint64_t step = 0;
+  double dt = 0.01;
+  // Per particle, in storage order. vex/vey/vez are empty without a thermostat, bvf without the
+  // wall model.
+  std::vector<double> x, y, z, vx, vy, vz, vex, vey, vez, fx, fy, fz, rho, bvf;
+  std::vector<std::int32_t> type;
+  std::vector<std::int32_t> origin;  // where each stored particle stands in the original order
+  std::vector<std::int64_t> id;
+  std::vector<RigidSlabBody> slabs;
+  std::uint64_t wall_corrections = 0;
+
+  std::size_t size() const { return x.size(); }
+  // The particles in the caller's original order (what Simulation::particles() returns).
+  ParticleSet particles() const;
+  // ConfigError naming the problem when arrays disagree in length or origin is not a
+  // permutation.
+  void check() const;
+};
+
+struct CheckpointFile {
+  SimulationState state;
+  std::string created_by;       // e.g. "rockflow run"
+  std::string scene_path;       // for messages
+  std::string scene_text;       // the scene the run was started from, verbatim
+  std::string parameters_json;  // backend, threads, options: provenance
+  std::map<std::string, std::string> texts;
+  std::map<std::string, std::vector<double>> numbers;
+  // Filled by read_checkpoint only.
+  std::string mesorock_version, git_commit;
+};
+
+inline constexpr int kCheckpointFormatVersion = 1;
+
+// Writes atomically: on failure `path` is untouched (an older checkpoint there survives).
+void write_checkpoint(const std::filesystem::path& path, const CheckpointFile& checkpoint);
+// Reads and checks a checkpoint; IoError naming the file and the object on any problem.
+CheckpointFile read_checkpoint(const std::filesystem::path& path);
+
+}  // namespace mesorock::sim

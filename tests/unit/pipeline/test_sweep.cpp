@@ -1,0 +1,239 @@
+// Permeability sweeps: the fits against exact and synthetic noisy data (their error bars must be
+// right, or the darcy-linearity verdict means nothing), the steady-state rule on a flow that
+// never settles, and `rockflow sweep` end to end at a tiny size (outputs, units, the viscosity
+// cache reused by a second sweep).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "mesorock/errors.h"
+#include "pipeline/flow/darcy_fit.h"
+#include "pipeline/flow/sweep.h"
+#include "pipeline/flow/systems.h"
+#include "support/test_support.h"
+
+namespace fs = std::filesystem;
+namespace mp = mesorock::pipeline;
+using mesorock::test::CommandResult;
+using mesorock::test::TempDir;
+
+namespace {
+
+TEST(SweepFits, ExactDataGiveTheirCoefficients) {
+  const std::vector<double> x = {1, 2, 3}, e = {1, 1, 1};
+  const auto p = mp::fit_proportional(x, {2, 4, 6}, e);
+  EXPECT_DOUBLE_EQ(p.slope, 2);
+  EXPECT_NEAR(p.chi2, 0, 1e-20);
+  EXPECT_NEAR(p.slope_error, 1 / std::sqrt(14.0), 1e-15);  // 1 / sqrt(sum x^2 / e^2)
+  EXPECT_EQ(p.dof, 2);
+  const auto l = mp::fit_line(x, {3, 5, 7}, e);
+  EXPECT_NEAR(l.intercept, 1, 1e-12);
+  EXPECT_NEAR(l.slope, 2, 1e-12);
+  // Unit weights: var(a) = sum x^2 / (N sum x^2 - (sum x)^2) = 14 / 6, var(b) = N / 6.
+  EXPECT_NEAR(l.intercept_error, std::sqrt(14.0 / 6), 1e-12);
+  EXPECT_NEAR(l.slope_error, std::sqrt(3.0 / 6), 1e-12);
+  EXPECT_NEAR(l.covariance, -6.0 / 6, 1e-12);
+  const auto q = mp::fit_quadratic_through_origin({1, 2, 3, 4}, {2.1, 4.4, 6.9, 9.6}, {1, 1, 1, 1});
+  EXPECT_NEAR(q.c1, 2, 1e-12);
+  EXPECT_NEAR(q.c2, 0.1, 1e-12);
+  EXPECT_NEAR(q.departure(3), 0.15, 1e-12);
+  EXPECT_NEAR(mp::chi2_99(1), 6.635, 1e-3);
+  EXPECT_NEAR(mp::chi2_99(20), 37.57, 0.1);  // Wilson-Hilferty against the table value
+  EXPECT_THROW(mp::fit_line({1}, {1}, {1}), mesorock::ConfigError);
+  EXPECT_THROW(mp::fit_line({1, 2}, {1, 2}, {1, 0}), mesorock::ConfigError);
+  EXPECT_THROW(mp::fit_proportional({1, 2}, {1}, {1, 1}), mesorock::ConfigError);
+}
+
+// 4,000 synthetic sweeps q = s G + noise with known errors: the fitted parameters scatter as
+// their error bars say (pulls of unit spread), and |intercept| < 2 errors in about 95% of them
+// (the darcy-linearity criterion); a quadratic truth is flagged by the departure and by chi^2.
+TEST(SweepFits, ErrorBarsAreRightOnSyntheticData) {
+  std::mt19937_64 rng(12345);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const std::vector<double> G = {0.1, 0.2, 0.3, 0.4};
+  const std::vector<double> err = {0.002, 0.003, 0.003, 0.004};
+  const double slope = 0.5;
+  const int trials = 4000;
+  double pull_a = 0, pull_s = 0, pull_c2 = 0;
+  int within = 0;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<double> q;
+    for (size_t k = 0; k < G.size(); ++k) q.push_back(slope * G[k] + err[k] * normal(rng));
+    const auto line = mp::fit_line(G, q, err);
+    const auto prop = mp::fit_proportional(G, q, err);
+    const auto quad = mp::fit_quadratic_through_origin(G, q, err);
+    pull_a += std::pow(line.intercept / line.intercept_error, 2);
+    pull_s += std::pow((prop.slope - slope) / prop.slope_error, 2);
+    pull_c2 += std::pow(quad.c2 / quad.c2_error, 2);
+    within += std::abs(line.intercept) <= 2 * line.intercept_error;
+  }
+  EXPECT_NEAR(std::sqrt(pull_a / trials), 1.0, 0.05);
+  EXPECT_NEAR(std::sqrt(pull_s / trials), 1.0, 0.05);
+  EXPECT_NEAR(std::sqrt(pull_c2 / trials), 1.0, 0.05);
+  EXPECT_NEAR(within / double(trials), 0.954, 0.015);
+  // A 10% quadratic departure at the largest gradient: detected.
+  std::vector<double> q;
+  for (double g : G) q.push_back(slope * g * (1 - 0.25 * g));
+  const auto quad = mp::fit_quadratic_through_origin(G, q, err);
+  EXPECT_NEAR(quad.departure(0.4), -0.1, 1e-9);
+  EXPECT_GT(std::abs(quad.departure(0.4)), 2 * quad.departure_error(0.4));
+}
+
+// A periodic fluid with no walls accelerates under a body force forever: never steady.
+TEST(Sweep, AnAcceleratingFlowIsNotSteady) {
+  const double L[3] = {3, 3, 3};
+  auto s = mp::make_bulk_dpd(25, 4.5, 3.0, L, 5);
+  mp::SweepOptions o;
+  o.forces = {0.05};
+  o.driven_types = 1;
+  o.fluid_density = 3;
+  o.viscosity = 1;
+  o.warmup_steps = 0;
+  o.block_steps = 100;
+  o.window = 2;
+  o.measure_blocks = 2;
+  o.max_steps = 1000;
+  const auto points = mp::run_sweep({s.model, s.box, s.particles}, o);
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_FALSE(points[0].steady);
+  EXPECT_EQ(points[0].steps, 1000u);
+  EXPECT_EQ(points[0].block_flux.size(), 10u);
+  // J = n <v> grows as n g t: the last block's mean velocity is about g t = 0.05 x 9.5.
+  EXPECT_NEAR(points[0].block_flux.back() / 3, 0.05 * 9.5, 0.1);
+  o.max_steps = 500;  // fewer than warm-up + (2 window + measure) blocks
+  EXPECT_THROW(mp::run_sweep({s.model, s.box, s.particles}, o), mesorock::ConfigError);
+}
+
+// A slit pore of lattice walls (the wall model on), fluid driven along x.
+const char* kSlit = R"(name = "tiny-slit"
+seed = 3
+[box]
+lo = [0.0, 0.0, 0.0]
+hi = [4.0, 4.0, 7.0]
+[model]
+conservative = "mdpd"
+[[types]]
+name = "water"
+body_force = [0.05, 0.0, 0.0]
+[[types]]
+name = "wall"
+frozen = true
+[[pairs]]
+types = ["water", "water"]
+A = -40.0
+B = 25.0
+gamma = 4.5
+[[pairs]]
+types = ["water", "wall"]
+A = -40.0
+B = 25.0
+gamma = 4.5
+[[pairs]]
+types = ["wall", "wall"]
+A = 0.0
+B = 0.0
+gamma = 0.0
+[[init]]
+kind = "lattice"
+type = "wall"
+density = 8.0
+hi = [4.0, 4.0, 1.5]
+[[init]]
+kind = "random"
+type = "water"
+density = 7.0
+lo = [0.0, 0.0, 1.5]
+hi = [4.0, 4.0, 7.0]
+[walls]
+model = "li2018"
+[[run]]
+steps = 100
+dt = 0.01
+[units]
+nm_per_rc = 0.852
+)";
+
+TEST(SweepCli, TinySweepWritesItsOutputsAndReusesTheCalibration) {
+  TempDir dir;
+  const fs::path scene = dir / "slit.toml";
+  std::ofstream(scene) << kSlit;
+  auto sweep = [&](const std::string& out) {
+    return mesorock::test::run_command(
+        mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
+            mesorock::test::shell_quote(scene.string()) + " --out " +
+            mesorock::test::shell_quote((dir / out).string()) +
+            " --forces 0.06,0.03 --warmup 200 --block-steps 100 --window 2 --measure-blocks 3 "
+            "--max-steps 1500 --calibration tiny --threads 2 --viscosity-cache " +
+            mesorock::test::shell_quote((dir / "cache").string()),
+        dir.path());
+  };
+  const CommandResult r = sweep("a");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("permeability (Darcy fit)"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("MPS/s"), std::string::npos) << r.err;  // the progress meter
+  const auto j = nlohmann::json::parse(mesorock::test::read_file(dir / "a" / "sweep.json"));
+  EXPECT_EQ(j.at("viscosity").at("source"), "calibration");
+  const double eta = j.at("viscosity").at("value").get<double>();
+  EXPECT_GT(eta, 3);  // the A = -40 liquid: about 7 (tiny calibration: within a factor)
+  EXPECT_LT(eta, 12);
+  EXPECT_EQ(j.at("flow_axis"), "x");
+  EXPECT_EQ(j.at("fluid_density").get<double>(), 7.0);
+  ASSERT_EQ(j.at("points").size(), 2u);
+  EXPECT_LT(j["points"][0]["force_g"].get<double>(), j["points"][1]["force_g"].get<double>());
+  for (const auto& p : j.at("points")) {
+    EXPECT_GT(p.at("darcy_velocity_q").get<double>(), 0);
+    // Definitions: G = n g, q = J / n, k = mu q / G.
+    EXPECT_DOUBLE_EQ(p.at("gradient_G").get<double>(), 7.0 * p.at("force_g").get<double>());
+    EXPECT_NEAR(p.at("darcy_velocity_q").get<double>(), p.at("flux_J").get<double>() / 7.0, 1e-15);
+    const auto& k = p.at("permeability");
+    EXPECT_NEAR(k.at("rc2").get<double>(),
+                eta * p.at("darcy_velocity_q").get<double>() / p.at("gradient_G").get<double>(),
+                1e-12);
+    EXPECT_NEAR(k.at("nm2").get<double>(), k.at("rc2").get<double>() * 0.852 * 0.852, 1e-9);
+    // 1 mD = 9.869233e-16 m^2 = 9.869233e2 nm^2.
+    EXPECT_NEAR(k.at("mD").get<double>(), k.at("nm2").get<double>() / 986.9233, 1e-9);
+  }
+  const auto& darcy = j.at("fits").at("darcy").at("permeability");
+  EXPECT_GT(darcy.at("rc2").get<double>(), 0);
+  EXPECT_TRUE(j.at("fits").contains("line"));
+  EXPECT_FALSE(j.at("fits").contains("quadratic"));  // two points only
+  const std::string csv = mesorock::test::read_file(dir / "a" / "sweep.csv");
+  EXPECT_NE(csv.find("point,force_g,gradient_G"), std::string::npos);
+  const std::string png = mesorock::test::read_file(dir / "a" / "sweep.png");
+  ASSERT_GT(png.size(), 8u);
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_TRUE(fs::exists(dir / "a" / "sweep_blocks.csv"));
+  const std::string cache_file = j.at("viscosity").at("cache_file").get<std::string>();
+  EXPECT_TRUE(fs::exists(cache_file));
+
+  // The second sweep of the same fluid reads the calibration from the cache.
+  const CommandResult again = sweep("b");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const auto k = nlohmann::json::parse(mesorock::test::read_file(dir / "b" / "sweep.json"));
+  EXPECT_EQ(k.at("viscosity").at("source"), "cache");
+  EXPECT_EQ(k.at("viscosity").at("value").get<double>(), eta);
+  // Same scene and seeds: the same flow rates.
+  EXPECT_EQ(k.at("points"), j.at("points"));
+}
+
+TEST(SweepCli, BadInputIsOneLineAndExitTwo) {
+  TempDir dir;
+  const fs::path scene = dir / "slit.toml";
+  std::ofstream(scene) << kSlit;
+  const std::string base = mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
+                           mesorock::test::shell_quote(scene.string()) + " --out " +
+                           mesorock::test::shell_quote((dir / "o").string());
+  for (const std::string& args :
+       {std::string(" --forces 0.1,abc"), std::string(" --forces 0"),
+        std::string(" --forces 0.1 --types nosuch"), std::string(" --forces 0.1 --types wall")}) {
+    const CommandResult r = mesorock::test::run_command(base + args, dir.path());
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find("rockflow: error:"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "o" / "sweep.json"));
+}
+
+}  // namespace
