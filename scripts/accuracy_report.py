@@ -134,7 +134,8 @@ def header_section(doc, small):
         "the wall time per particle per unit of simulated time, in ns: a run of N particles over "
         "T tau costs N x T x that. It comes from the measured speed in million particle-steps per "
         "second (MPS/s): cost = 1000 / (MPS/s x dt) ns. Speeds are measured on a timed stretch of "
-        "steps without sampling, ended by a synchronising read (as `rockflow bench`). The "
+        "steps without sampling, from a synchronised start to a synchronised end (on a GPU, "
+        "all queued work done). The "
         "liquid of the accuracy studies is the validation cases' mDPD liquid: A = -40, B = 25, "
         "rd = 0.75, gamma = 4.5, rho = 7, the papers' density kernel, lambda = 0.5.\n"
     )
@@ -382,8 +383,8 @@ def resolution_section(st, outdir, figures):
         "the fluid begins: the wall model imposes no slip there (poiseuille-walls measures slip "
         "lengths under 0.3 rc from it), so Stokes flow gives k = H^2/12 with H the distance "
         "between the cut planes. The slip length of the table is the fitted parabola's (half the "
-        "difference between its zeros' distance and H; the fit leaves out 0.5 rc at each wall, so "
-        "it says little for H <= 3).\n"
+        "difference between its zeros' distance and H; the fit leaves out 0.5 rc at each wall and "
+        "is made only for H >= 3, and only when the profile opens downwards).\n"
         % (", ".join(f(w) for w in p["widths"]), f(p["wall_thickness"]), f(p["peak_shear_rate"]),
            f(p["dt"]), p["precision"], f(p["sample_tau"]), f(p["equilibrate_tau"]),
            f(p["pore_volume_per_slit"]), f(p["pore_volume_per_slit"]), f(p["viscosity"]))
@@ -559,8 +560,9 @@ def effects_section(st, outdir, figures):
         y = np.arange(len(ok))[::-1]
         vals = [100 * (r["ms_per_step"] / mean - 1) for r in ok]
         colours = ["tab:grey" if r["scene"].startswith("bare") else ("tab:blue" if r["active"] else "tab:green") for r in ok]
-        ax.barh(y, vals, color=colours)
-        ax.axvspan(-200 * sd / mean, 200 * sd / mean, color="orange", alpha=0.25, label="bare mean ± 2 s.d.")
+        ax.barh(y, vals, color=colours, zorder=2)
+        ax.axvspan(-200 * sd / mean, 200 * sd / mean, color="orange", alpha=0.25, zorder=0,
+                   label="bare mean ± 2 s.d.")
         ax.set_yticks(y)
         ax.set_yticklabels([r["scene"] for r in ok], fontsize=8)
         ax.axvline(0, color="black", lw=0.8)

@@ -562,12 +562,15 @@ SlitResult measure_slit(const Context& c, const Prepared& p, double dt, sim::Pre
     }
     if (nw > 0) r.wall_temperature = tw / nw;
     if (nb > 0) r.bulk_temperature = tb / nb;
-    if (zz.size() >= 4) {
+    // Only where the fit spans at least 2 rc (H >= 3), and only a parabola that opens downwards
+    // and has zeros: otherwise the noise, not the flow, shapes it.
+    if (p.width - 1.0 >= 2.0 - 1e-9 && zz.size() >= 4) {
       const ParabolaFit f = fit_parabola(zz, uu, {}, zc);
-      const double disc = std::sqrt(std::max(0.0, f.c1 * f.c1 - 4 * f.c0 * f.c2));
-      const double da = (-f.c1 + disc) / (2 * f.c2), db = (-f.c1 - disc) / (2 * f.c2);
-      r.hydrodynamic_width = std::abs(da - db);
-      r.slip = 0.5 * (r.hydrodynamic_width - p.width);
+      const double d2 = f.c1 * f.c1 - 4 * f.c0 * f.c2;
+      if (f.c2 < 0 && d2 > 0) {
+        r.hydrodynamic_width = std::sqrt(d2) / std::abs(f.c2);
+        r.slip = 0.5 * (r.hydrodynamic_width - p.width);
+      }
     }
     if (!std::isfinite(r.k)) throw Unstable(what + ": permeability is not finite");
   } catch (const Unstable& e) {
