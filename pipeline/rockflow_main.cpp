@@ -13,6 +13,7 @@
 #include "pipeline/flow/progress.h"
 #include "pipeline/flow/run_scene.h"
 #include "pipeline/flow/sweep.h"
+#include "pipeline/flow/study.h"
 #include "pipeline/flow/validation.h"
 #include "pipeline/scene.h"
 #include "sim/domain/communicator.h"
@@ -166,6 +167,8 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1, 4))
         ->capture_default_str();
 
+    const mp::StudyCommand study = mp::add_study_command(app, backend, threads);
+
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -267,6 +270,11 @@ int main(int argc, char** argv) {
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (root) std::cout << (json ? mp::format_case_json(r) + "\n" : mp::format_case_text(r));
       return r.pass() ? mp::kExitOk : mp::kExitFailed;
+    }
+
+    if (*study.app) {
+      require_backend(so.backend);
+      return study.run(so);
     }
 
     if (*bench) {
