@@ -9,6 +9,16 @@
 #                                          # per-pass profiles; no validation
 #   bash scripts/gpu/device_run.sh watchdog  # tests + the watchdog's cost: each case timed with
 #                                          # the watchdog off and on in one process (sim/watchdog.h)
+#   bash scripts/gpu/device_run.sh verify  # tests + every validation case small, the wall,
+#                                          # flooding and permeability cases full; the watchdog's
+#                                          # cost; the one-rank MPI path's cost
+#   bash scripts/gpu/device_run.sh study   # the accuracy study at full size (rockflow study:
+#                                          # study.json and CSVs; scripts/accuracy_report.py here
+#                                          # turns them into docs/accuracy.md)
+#   bash scripts/gpu/device_run.sh samples # carried prepared samples (.carry/samples, prepared
+#                                          # on the CPU machine by rockprep): the shale
+#                                          # permeability sweep on the GPU, and the load-balance
+#                                          # benchmark (4 CPU ranks, slabs vs RCB)
 set -uo pipefail
 mode=${1:-quick}
 out=${OUT:-gpu-out}
@@ -31,14 +41,59 @@ if command -v mpirun >/dev/null; then
     mpirun -np 2 --oversubscribe $bin/unit_mpi 2>&1 | tee "$out/unit_mpi.log" | tail -3
 fi
 
+if [ "$mode" = study ]; then
+  start=$(date +%s)
+  $bin/rockflow study --size full --backend cuda --out "$out/accuracy" ${STUDY_ONLY:+--only $STUDY_ONLY} \
+    2>&1 | tee "$out/study.log" | grep -v '\r' | tail -5
+  log "study: $(( $(date +%s) - start )) s"
+  exit 0
+fi
+if [ "$mode" = samples ]; then
+  # The shale permeability sweep (samples/06_shale_permeability, prepared with --prep-only).
+  if [ -f .carry/samples/shale/scene.toml ]; then
+    start=$(date +%s)
+    $bin/rockflow sweep .carry/samples/shale/scene.toml --out "$out/shale_sweep" --backend cuda \
+      ${SWEEP_ARGS:-} 2>&1 | tee "$out/shale_sweep.log" | tail -8
+    log "shale sweep: $(( $(date +%s) - start )) s"
+  fi
+  # Load balance: the flooding set-up of samples/01 (full) on 4 CPU ranks, slabs vs RCB.
+  if [ -f .carry/samples/flood/scene.toml ] && command -v mpirun >/dev/null; then
+    for method in slabs rcb; do
+      scene="$out/flood_$method.toml"
+      { cat .carry/samples/flood/scene.toml
+        printf '\n[decomposition]\nmethod = "%s"\nrebalance_every = 1000\n' "$method"; } > "$scene"
+      start=$(date +%s)
+      OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=4 \
+        timeout 240 mpirun -np 4 --bind-to none $bin/rockflow run "$scene" --out "$out/lb_$method" \
+        --threads 4 2>&1 | tail -3
+      log "load balance $method: $(( $(date +%s) - start )) s"
+      python3 - "$out/lb_$method/balance.csv" <<'PY' | tee -a "$out/summary.txt"
+import csv, sys
+rows = [r for r in csv.reader(l for l in open(sys.argv[1]) if not l.startswith("#"))][1:]
+imb = [float(r[3]) for r in rows]
+print("  %s: rows %d, steps %s..%s, imbalance mean %.3f max %.3f last %.3f" % (sys.argv[1], len(imb), rows[0][0], rows[-1][0], sum(imb) / len(imb), max(imb), imb[-1]))
+PY
+    done
+  fi
+  exit 0
+fi
+
 size=small
 [ "$mode" = full ] && size=full
 [ "$mode" = perf ] && CASES=${CASES:-none}
 [ "$mode" = watchdog ] && CASES=${CASES:-none}
+[ "$mode" = verify ] && CASES=${CASES:-$($bin/rockflow validate --list | tr '\n' ' ')}
 for c in ${CASES:-eos-dpd eos-mdpd conservation slab viscosity poiseuille-walls no-penetration flooding-mini}; do
   [ "$c" = none ] && continue
   $bin/rockflow validate $c --size $size --backend cuda --json 2>>"$out/validate.log" | tee -a "$out/validate.jsonl" | cut -c1-200
 done
+if [ "$mode" = verify ]; then
+  for c in ${FULL_CASES:-no-penetration flooding-mini perm-slit perm-tube perm-sphere-array darcy-linearity}; do
+    $bin/rockflow validate $c --size full --backend cuda --json 2>>"$out/validate_full.log" |
+      python3 -c 'import json,sys; j=json.loads(sys.stdin.read()); j["size"]="full"; print(json.dumps(j))' |
+      tee -a "$out/validate.jsonl" | cut -c1-200
+  done
+fi
 
 bench() {
   local exe=$1
@@ -61,6 +116,23 @@ if [ "$mode" = perf ]; then
     done
   done
   bench $bin/rockflow --case porous --particles 2100000 --steps 200 --compare-cpu --threads $(nproc)
+elif [ "$mode" = verify ]; then
+  # The watchdog's cost, off and on in one process.
+  for p in "porous 2100000 400" "bulk 1000000 400"; do
+    set -- $p
+    bench $bin/rockflow --case $1 --particles $2 --steps $3 --watchdog compare
+  done
+  # The one-rank MPI path: plain, under mpirun -np 1 (MPI started, one rank: the plain solver),
+  # and the decomposed path forced on one rank (exchange, ghosts, hooks), side by side.
+  bench $bin/rockflow --case porous --particles 2100000 --steps 300
+  if command -v mpirun >/dev/null; then
+    OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun -np 1 --bind-to none \
+      $bin/rockflow bench --backend cuda --json --case porous --particles 2100000 --steps 300 \
+      2>>"$out/bench.log" |
+      python3 -c 'import json,sys; j=json.loads(sys.stdin.read()); j["binary"]="mpirun-np1"; print(json.dumps(j))' |
+      tee -a "$out/bench.jsonl"
+  fi
+  bench $bin/rockflow --case porous --particles 2100000 --steps 300 --decompose
 elif [ "$mode" = watchdog ]; then
   for p in "porous 2100000 400" "bulk 1000000 400" "porous 16000000 200" "bulk 16000000 200"; do
     set -- $p
