@@ -4,18 +4,25 @@
 # The GPU machine (Ubuntu 24.04, CUDA 13) has no OpenVDB, toml++, Random123 or package access,
 # so building here and carrying the binaries is the simplest path (DESIGN.md, GPU machine facts).
 # Then run on the device:  bash scripts/gpu/device_run.sh [quick|full]
+# BUILD_DIR=build reuses the main build folder when it already builds CUDA for sm_90 (the
+# default configuration when nvcc is here): no second full build.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-cmake -S . -B build-gpu -G Ninja -DCMAKE_BUILD_TYPE=Release -DMESOROCK_BUILD_ROCKPREP=OFF \
-  -DMESOROCK_ENABLE_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
-cmake --build build-gpu --parallel "$(nproc)" --target rockflow unit_sim unit_gpu unit_mpi
+dir=${BUILD_DIR:-build-gpu}
+if [ "$dir" = build-gpu ]; then
+  cmake -S . -B build-gpu -G Ninja -DCMAKE_BUILD_TYPE=Release -DMESOROCK_BUILD_ROCKPREP=OFF \
+    -DMESOROCK_ENABLE_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
+else
+  grep -q "^MESOROCK_ENABLE_CUDA:BOOL=ON" "$dir/CMakeCache.txt" ||
+    { echo "build_bundle.sh: $dir is not a CUDA build" >&2; exit 1; }
+fi
+cmake --build "$dir" --parallel "$(nproc)" --target rockflow unit_sim unit_gpu unit_mpi
 rm -rf .carry/gpu && mkdir -p .carry/gpu/bin .carry/gpu/lib
-cp build-gpu/bin/rockflow build-gpu/bin/unit_sim build-gpu/bin/unit_gpu build-gpu/bin/unit_mpi \
-  .carry/gpu/bin/
+cp "$dir/bin/rockflow" "$dir/bin/unit_sim" "$dir/bin/unit_gpu" "$dir/bin/unit_mpi" .carry/gpu/bin/
 # Only the libraries the GPU machine lacks (toml++). HDF5 is not carried: the machine's own
 # libhdf5_serial.so.103 (1.10) has the same soname and brings its own dependency chain; likewise
 # Open MPI's libmpi.so.40 (4.1.6 there, 4.1.4 here: the same ABI).
-for lib in $(ldd build-gpu/bin/rockflow | awk '/tomlplusplus/ {print $3}'); do
+for lib in $(ldd "$dir/bin/rockflow" | awk '/tomlplusplus/ {print $3}'); do
   cp -L "$lib" .carry/gpu/lib/
 done
 # Side-by-side variants for benchmarks: VARIANTS="name:-DDEFINE ..." builds rockflow once more per
