@@ -51,10 +51,14 @@ struct WatchdogHit {
 
 // The device's record of hits. Only the first failing step records; its hits fill the slots in
 // any order and the host reports the one with the smallest particle id (the CPU's choice too).
+// When more hits than slots come in one step (a whole box blowing up), min_id still holds the
+// smallest id, and a one-block kernel right after the check puts that particle's hit in slot 0.
 constexpr int kWatchdogSlots = 32;
 struct WatchdogRecord {
   unsigned long long first_step = ~0ull;  // all ones: no hit yet
   unsigned int count = 0;                 // hits of the first failing step (may exceed the slots)
+  unsigned int resolved = 0;              // slot 0 holds the min_id hit (count > slots only)
+  unsigned long long min_id = ~0ull;      // the smallest id among the first failing step's hits
   WatchdogHit slots[kWatchdogSlots];
 };
 
@@ -99,6 +103,7 @@ __device__ inline void watchdog_record(WatchdogRecord* r, std::uint64_t step, st
                                        int quantity, double value) {
   const unsigned long long s = static_cast<unsigned long long>(step);
   if (atomicMin(&r->first_step, s) < s) return;
+  atomicMin(&r->min_id, static_cast<unsigned long long>(id));
   const unsigned int slot = atomicAdd(&r->count, 1u);
   if (slot < static_cast<unsigned int>(kWatchdogSlots)) {
     WatchdogHit& h = r->slots[slot];

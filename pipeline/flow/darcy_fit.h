@@ -144,4 +144,15 @@ inline double chi2_99(int dof) {
   return k * t * t * t;
 }
 
+// The 99% point of chi^2 when each point's error is itself estimated from `blocks` block means
+// (nu = blocks - 1 degrees of freedom): chi^2 / dof then follows Snedecor's F(dof, nu) rather than
+// chi^2_dof / dof, whose tail is heavier for few blocks (F(1, 9) = 10.56 against chi^2 6.63).
+// dof x F_0.99(dof, nu) from the standard tables, dof 1 to 3 and nu 9 to 11; chi2_99 elsewhere.
+inline double chi2_99_estimated_errors(int dof, int blocks) {
+  static const double f99[3][3] = {{10.56, 10.04, 9.65}, {8.02, 7.56, 7.21}, {6.99, 6.55, 6.22}};
+  const int nu = blocks - 1;
+  if (dof < 1 || dof > 3 || nu < 9 || nu > 11) return chi2_99(dof);
+  return dof * f99[dof - 1][nu - 9];
+}
+
 }  // namespace mesorock::pipeline

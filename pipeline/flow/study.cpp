@@ -63,6 +63,13 @@ class Unstable : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+// A run that blew up: the study's own checks (Unstable) or the solver's watchdog
+// (NumericalError: NaN, infinity or a runaway particle). Either makes the row "unstable".
+bool is_instability(const std::exception& e) {
+  return dynamic_cast<const Unstable*>(&e) != nullptr ||
+         dynamic_cast<const NumericalError*>(&e) != nullptr;
+}
+
 
 // Sizes of every study at one size (tiny / small / full).
 struct Sizes {
@@ -376,7 +383,8 @@ BulkResult measure_bulk(const Context& c, const Prepared& p, double dt, sim::Pre
     }
     r.T = block_average(T, 10);
     r.p = block_average(P, 10);
-  } catch (const Unstable& e) {
+  } catch (const std::exception& e) {
+    if (!is_instability(e)) throw;
     r.stable = false;
     r.failure = e.what();
   }
@@ -475,7 +483,8 @@ ViscosityResult measure_viscosity_at(const Context& c, const Prepared& p, double
     for (double v : T.mean) tsum += v;
     r.temperature = tsum / static_cast<double>(T.mean.size());
     if (!std::isfinite(r.eta)) throw Unstable(what + ": viscosity is not finite");
-  } catch (const Unstable& e) {
+  } catch (const std::exception& e) {
+    if (!is_instability(e)) throw;
     r.stable = false;
     r.failure = e.what();
   }
@@ -575,7 +584,8 @@ SlitResult measure_slit(const Context& c, const Prepared& p, double dt, sim::Pre
       }
     }
     if (!std::isfinite(r.k)) throw Unstable(what + ": permeability is not finite");
-  } catch (const Unstable& e) {
+  } catch (const std::exception& e) {
+    if (!is_instability(e)) throw;
     r.stable = false;
     r.failure = e.what();
   }
@@ -628,7 +638,8 @@ ScaleTiming time_at_scale(const Context& c, const BuiltSystem& big, sim::Precisi
       r.mps.push_back(timed_mps(*s, c.z.scale_steps, what));
       say(c, what + ": " + fmt(r.mps.back(), 4) + " MPS/s (" + std::to_string(r.particles) +
                  " particles)");
-    } catch (const Unstable& e) {
+    } catch (const std::exception& e) {
+    if (!is_instability(e)) throw;
       say(c, std::string("unstable: ") + e.what());
       r.mps.push_back(NAN);
       s.reset();
@@ -999,7 +1010,8 @@ StudyResult run_reorder(const Context& c) {
         row["pressure_end"] = sim->stress().pressure_conservative();
         row["stable"] = true;
         say(c, what + ": " + fmt(mps, 4) + " MPS/s");
-      } catch (const Unstable& e) {
+      } catch (const std::exception& e) {
+    if (!is_instability(e)) throw;
         row["mps"] = nullptr;
         row["speedup_vs_default"] = nullptr;
         row["temperature_end"] = nullptr;
@@ -1310,7 +1322,8 @@ StudyResult run_effects(const Context& c) {
         m.ms = k == 0 ? ms : std::min(m.ms, ms);
       }
       m.T = temperature_or_throw(*s, sc.name, kRunawayTemperature);
-    } catch (const Unstable& u) {
+    } catch (const std::exception& u) {
+      if (!is_instability(u)) throw;
       m.stable = false;
       say(c, std::string("unstable: ") + u.what());
     }

@@ -348,7 +348,9 @@ CaseResult run_perm_sphere_array(const ValidateOptions& o) {
 // shear rate of 0.2, measured by the sweep machinery of `rockflow sweep` (steady-state detection,
 // block errors, chained points). Darcy's law says q = (k / mu) G through the origin: a straight
 // line fitted with an intercept must pass within two error bars of zero and fit the points
-// (chi^2 below its 99% point); the slope must be resolved to 5 standard errors, or the test
+// (chi^2 below its 99% point, with the F distribution's allowance for errors that are themselves
+// estimated from 10 or 12 blocks; a GPU run at the small size gave chi^2 = 7.26 against the
+// plain chi^2 point 6.63 for 1 dof); the slope must be resolved to 5 standard errors, or the test
 // could not tell a line through the origin from anything else.
 CaseResult run_darcy_linearity(const ValidateOptions& o) {
   CaseResult r;
@@ -406,8 +408,11 @@ CaseResult run_darcy_linearity(const ValidateOptions& o) {
                                 line.intercept_error, 0, 2 * line.intercept_error,
                                 "Darcy's law goes through the origin; issue: within 2 error bars"));
   r.quantities.push_back(judged("chi^2 of the straight line (" + std::to_string(line.dof) + " dof)",
-                                line.chi2, 0, chi2_99(line.dof), 0,
-                                "linear within the error bars: below the 99% point",
+                                line.chi2, 0,
+                                chi2_99_estimated_errors(line.dof, static_cast<int>(so.measure_blocks)), 0,
+                                "linear within the error bars: below the 99% point (each error "
+                                "estimated from " + std::to_string(so.measure_blocks) +
+                                    " blocks: dof x F_0.99(dof, blocks - 1))",
                                 Comparison::AtMost));
   r.quantities.push_back(judged("slope / its error", line.slope / line.slope_error, 0, 5, 0,
                                 "the flow is resolved: the test can tell a line through 0",

@@ -71,6 +71,31 @@ awk -F, '
     if (!(recovery > 0)) { print "check failed: recovery " recovery; exit 1 }
     print "check: recovery of the source fluid at the end " recovery
   }' "$sat"
+# 5. The recovery curve as a picture (Debian's python3-matplotlib, installed by scripts/setup.sh).
+if /usr/bin/python3 -c 'import matplotlib' 2>/dev/null; then
+  /usr/bin/python3 - "$sat" "$out/flood/recovery.png" <<'PY'
+import csv, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+rows = [r for r in csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith("#"))]
+rows = [r for r in rows if r["region"] == "block"]
+t = [float(r["time"]) for r in rows]
+rec = [float(r["recovery"]) for r in rows]
+fig, ax = plt.subplots(figsize=(5, 3.5), dpi=120)
+ax.plot(t, rec, "-o", ms=3)
+ax.set_xlabel("time (tau)")
+ax.set_ylabel("recovery = 1 - source saturation")
+ax.set_title("sample 01: source fluid recovered from the block")
+fig.tight_layout()
+fig.savefig(sys.argv[2] + ".tmp.png")
+import os
+os.replace(sys.argv[2] + ".tmp.png", sys.argv[2])
+PY
+  echo "sample 01: recovery curve in $out/flood/recovery.png"
+else
+  echo "sample 01: no matplotlib here: the recovery curve is in $sat (column recovery)"
+fi
 for phase in organic_wall inorganic_wall; do
   grep -q "\"$phase\"" "$out/setup/run.json" || { echo "check failed: no $phase particles"; exit 1; }
 done

@@ -46,6 +46,12 @@ if [ "$mode" = study ]; then
   $bin/rockflow study --size full --backend cuda --out "$out/accuracy" ${STUDY_ONLY:+--only $STUDY_ONLY} \
     2>&1 | tee "$out/study.log" | grep -v '\r' | tail -5
   log "study: $(( $(date +%s) - start )) s"
+  # The watchdog's cost after the study (the same binary): off and on in one process.
+  for p in ${WATCHDOG_CASES:-"porous 2100000 400" "bulk 1000000 400" "porous 16000000 200"}; do
+    set -- $p
+    $bin/rockflow bench --backend cuda --json --case $1 --particles $2 --steps $3 \
+      --watchdog compare 2>>"$out/bench.log" | tee -a "$out/bench.jsonl" | cut -c1-300
+  done
   exit 0
 fi
 if [ "$mode" = samples ]; then

@@ -461,6 +461,28 @@ __global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecor
   if (q != kWatchdogOk) watchdog_record(record, v.step, v.id[i], q, value);
 }
 
+// Runs right after watchdog_kernel in the same step: returns at once unless this step's hits
+// overflowed the slots; then finds the particle of the smallest id and puts its hit in slot 0,
+// so the report names the same particle as the CPU's.
+template <class Real>
+__global__ void watchdog_resolve_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record) {
+  if (record->count <= static_cast<unsigned int>(kWatchdogSlots) || record->resolved ||
+      record->first_step != static_cast<unsigned long long>(v.step))
+    return;
+  for (int i = threadIdx.x; i < v.n; i += blockDim.x) {
+    if (static_cast<unsigned long long>(v.id[i]) != record->min_id) continue;
+    double value = 0;
+    const int q = watchdog_check(v, i, max_speed2, value);
+    if (q == kWatchdogOk) continue;  // a ghost copy of it in a decomposed run
+    WatchdogHit& h = record->slots[0];
+    h.step = v.step;
+    h.id = v.id[i];
+    h.quantity = q;
+    h.value = value;
+    record->resolved = 1;
+  }
+}
+
 // Binned sums (count, v, v*v) with atomics. The order of the atomic additions varies, so the last
 // bits of a GPU profile may differ between runs; the trajectory itself does not.
 template <class Real>
@@ -614,6 +636,8 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     const double limit = watchdog_speed_limit(this->watchdog_, static_cast<double>(dt_));
     watchdog_kernel<Real><<<blocks_for(n_), kBlock>>>(view(), static_cast<Real>(limit * limit),
                                                       watchdog_record_.get());
+    watchdog_resolve_kernel<Real><<<1, 256>>>(view(), static_cast<Real>(limit * limit),
+                                              watchdog_record_.get());
     if (++watchdog_since_poll_ >= this->watchdog_.poll_steps) watchdog_poll(false);
   }
   void watchdog_poll(bool now) {
