@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "mesorock/errors.h"
+#include "sim/checkpoint.h"
 #include "sim/domain/communicator.h"
 #include "sim/domain/decomposition.h"
 #include "sim/engine_factory.h"
