@@ -36,6 +36,7 @@
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
+#include "pipeline/flow/wall_liquid.h"
 #include "sim/domain/communicator.h"
 #include "sim/init.h"
 #include "sim/observables.h"
@@ -44,6 +45,7 @@ namespace mesorock::pipeline {
 
 namespace {
 
+using namespace wall_liquid;
 using Clock = std::chrono::steady_clock;
 using Json = nlohmann::ordered_json;
 

@@ -16,12 +16,18 @@
 #include "mesorock/errors.h"
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/validation.h"
+#include "pipeline/flow/wall_liquid.h"
 #include "sim/init.h"
 #include "sim/observables.h"
 
 namespace mesorock::pipeline {
 
 namespace {
+
+using wall_liquid::kA;
+using wall_liquid::kB;
+using wall_liquid::kGamma;
+using wall_liquid::kRd;
 
 using Clock = std::chrono::steady_clock;
 
