@@ -53,15 +53,15 @@ struct FloodingOptions {
                                // volume over the cross-section, plus 1 rc
 };
 
-struct FloodingLayout {
-  voxel::Volume codes;  // uint8 role codes (z, y, x), the block extended along the flow axis
+// What a layout hands to the packer (role codes over the box's voxels and where they lie) and to
+// rockprep run's records (the block's voxel counts); the flooding and permeability layouts
+// (permeability.h) add their own geometry.
+struct VoxelLayout {
+  voxel::Volume codes;  // uint8 role codes (z, y, x) over the box
   std::array<double, 3> voxel_rc{};
   std::array<double, 3> origin{};  // (x, y, z) of voxel (0, 0, 0)'s corner
-  sim::BoxSpec box;                // all faces reflective
+  sim::BoxSpec box;
   int flow_axis = 0;
-  // Along the flow axis (rc): the slabs, reservoirs and block.
-  double push_lo = 0, push_hi = 0, inlet_lo = 0, block_lo = 0, block_hi = 0, outlet_hi = 0,
-         back_lo = 0, back_hi = 0;
   std::array<double, 3> block_extent{};  // the block's edges (x, y, z), rc
   // Counts (voxels).
   std::int64_t block_voxels = 0, pore_voxels = 0, pore_voxels_dropped = 0, solid_voxels = 0;
@@ -69,6 +69,13 @@ struct FloodingLayout {
   std::array<std::int64_t, kFloodingRoles + 1> role_voxels{};  // by role code
   std::array<int, 3> wall_layers_zyx{};
   bool has_role(int role) const { return role_voxels[static_cast<std::size_t>(role)] > 0; }
+};
+
+// codes: the block extended along the flow axis; box: all faces reflective.
+struct FloodingLayout : VoxelLayout {
+  // Along the flow axis (rc): the slabs, reservoirs and block.
+  double push_lo = 0, push_hi = 0, inlet_lo = 0, block_lo = 0, block_hi = 0, outlet_hi = 0,
+         back_lo = 0, back_hi = 0;
 };
 
 // `labels`: uint8 phase codes (voxel/segment.h) of the block, voxel edges in options.voxel_rc.

@@ -14,6 +14,7 @@
 #include "pipeline/flow/progress.h"
 #include "pipeline/flow/viscosity_calibration.h"
 #include "sim/observables.h"
+#include "sim/particle_io.h"
 
 namespace mesorock::pipeline {
 
@@ -197,16 +198,42 @@ int parse_axis(const std::string& a) {
   throw ConfigError("sweep: --axis must be x, y or z (got " + a + ")");
 }
 
+// The fluid density a particle file records for the driven types, if any: `rockprep run
+// --layout permeability` writes {"fluid_types": [...], "fluid_density": n} in the file's
+// provenance, since a file block of the scene has no density.
+std::optional<double> density_from_particle_file(const Scene& scene, const InitSpec& b,
+                                                 std::uint32_t driven) {
+  sim::ParticleFileMeta meta;
+  sim::read_particle_file(b.file, &meta);
+  const nlohmann::json j = nlohmann::json::parse(meta.provenance_json, nullptr, false);
+  if (!j.is_object() || !j.contains("fluid_density") || !j["fluid_density"].is_number() ||
+      !j.contains("fluid_types") || !j["fluid_types"].is_array())
+    return std::nullopt;
+  for (int t = 0; t < scene.model.ntypes(); ++t) {
+    if (!((driven >> t) & 1u)) continue;
+    const std::string& name = scene.model.types[static_cast<size_t>(t)].name;
+    if (std::find(j["fluid_types"].begin(), j["fluid_types"].end(), name) == j["fluid_types"].end())
+      return std::nullopt;
+  }
+  return j["fluid_density"].get<double>();
+}
+
 // The fluid density the scene's [[init]] blocks give the driven types (one value), if any.
 std::optional<double> density_from_scene(const Scene& scene, std::uint32_t driven) {
   std::optional<double> found;
   for (const auto& b : scene.init) {
-    if (b.kind == InitSpec::Kind::File) continue;
-    const int t = scene.model.type_index(b.type);
-    if (t < 0 || !((driven >> t) & 1u)) continue;
-    double v = 1;
-    for (int a = 0; a < 3; ++a) v *= b.hi[static_cast<size_t>(a)] - b.lo[static_cast<size_t>(a)];
-    const double rho = b.density ? *b.density : static_cast<double>(b.count.value_or(0)) / v;
+    double rho = 0;
+    if (b.kind == InitSpec::Kind::File) {
+      const std::optional<double> recorded = density_from_particle_file(scene, b, driven);
+      if (!recorded) continue;
+      rho = *recorded;
+    } else {
+      const int t = scene.model.type_index(b.type);
+      if (t < 0 || !((driven >> t) & 1u)) continue;
+      double v = 1;
+      for (int a = 0; a < 3; ++a) v *= b.hi[static_cast<size_t>(a)] - b.lo[static_cast<size_t>(a)];
+      rho = b.density ? *b.density : static_cast<double>(b.count.value_or(0)) / v;
+    }
     if (found && std::abs(*found - rho) > 1e-9 * rho)
       throw ConfigError(scene.path.string() +
                         ": sweep: the driven types' [[init]] blocks have different densities (" +

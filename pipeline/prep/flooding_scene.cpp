@@ -139,4 +139,69 @@ std::string flooding_scene_toml(const packing::FloodingLayout& L, const Flooding
   return s.str();
 }
 
+std::string permeability_scene_toml(const packing::PermeabilityLayout& L,
+                                    const PermeabilitySceneParams& p) {
+  std::ostringstream s;
+  std::istringstream comment(p.comment);
+  for (std::string line; std::getline(comment, line);) s << "# " << line << "\n";
+  const auto a = static_cast<std::size_t>(L.flow_axis);
+  s << "name = " << quoted(p.name) << "\n"
+    << "seed = " << p.seed << "\n\n"
+    << "[box]\n"
+    << "lo = " << vec(L.box.lo) << "\n"
+    << "hi = " << vec(L.box.hi) << "\n"
+    << "boundary = [\"periodic\", \"periodic\", \"periodic\"]\n\n"
+    << "[model]\n"
+    << "conservative = \"mdpd\"\n"
+    << "density_kernel = " << quoted(p.density_kernel) << "\n"
+    << "rd = " << num(p.rd) << "\n"
+    << "thermostat = true\n"
+    << "kBT = " << num(p.kBT) << "\n\n";
+  std::vector<std::string> walls;
+  for (const std::string& t : p.type_names) {
+    s << "[[types]]\nname = " << quoted(t) << "\n";
+    if (t == p.fluid_type) {
+      std::array<double, 3> force{0, 0, 0};
+      force[a] = p.body_force;
+      s << "body_force = " << vec(force) << "  # drives the flow; rockflow sweep sets its own\n";
+    } else {
+      s << "frozen = true\n";
+      walls.push_back(t);
+    }
+    s << "\n";
+  }
+  auto a_of = [&](const std::string& t, const std::string& u) {
+    if (t == p.fluid_type && u == p.fluid_type) return p.a_fluid;
+    if (t != p.fluid_type && u != p.fluid_type) return p.a_wall;
+    const std::string& wall = t == p.fluid_type ? u : t;
+    return wall == "organic_wall" ? p.a_organic : p.a_inorganic;
+  };
+  for (std::size_t i = 0; i < p.type_names.size(); ++i)
+    for (std::size_t j = i; j < p.type_names.size(); ++j) {
+      const std::string& t = p.type_names[i];
+      const std::string& u = p.type_names[j];
+      s << "[[pairs]]\ntypes = [" << quoted(t) << ", " << quoted(u) << "]\n"
+        << "A = " << num(a_of(t, u)) << "\nB = " << num(p.B) << "\ngamma = " << num(p.gamma)
+        << "\n\n";
+    }
+  if (!walls.empty()) {
+    s << "[walls]  # the boundary model of Li et al. 2018 (docs/walls.md)\n"
+      << "model = \"li2018\"\n"
+      << "types = " << list(walls) << "\n"
+      << "wall_density = " << num(p.wall_density) << "  # the packed walls' particle density\n\n";
+  }
+  s << "[[init]]\nkind = \"file\"\nfile = " << quoted(p.particle_file) << "\n\n";
+  s << "[[run]]\nname = \"relax\"\nsteps = " << p.relax_steps << "\ndt = " << num(p.relax_dt)
+    << "\n\n"
+    << "[[run]]\nname = \"flow\"\nsteps = " << p.flow_steps << "\ndt = " << num(p.dt) << "\n\n";
+  s << "[output]\nthermo_every = " << p.thermo_every << "\nsnapshot_every = " << p.snapshot_every
+    << "\naverage_stages = [\"flow\"]\n\n";
+  // The block (its first copy when mirrored): fluid count and flow rate.
+  s << "[[output.regions]]\nname = \"block\"\nlo = " << vec({0, 0, 0})
+    << "\nhi = " << vec(L.block_extent) << "\nevery = " << p.region_every << "\ntypes = ["
+    << quoted(p.fluid_type) << "]\n\n";
+  if (p.nm_per_rc > 0) s << "[units]\nnm_per_rc = " << num(p.nm_per_rc) << "\n";
+  return s.str();
+}
+
 }  // namespace mesorock::pipeline::prep

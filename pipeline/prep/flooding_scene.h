@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "packing/flooding.h"
+#include "packing/permeability.h"
 
 namespace mesorock::pipeline::prep {
 
@@ -36,6 +37,21 @@ struct FloodingSceneParams {
 
 std::string flooding_scene_toml(const packing::FloodingLayout& layout,
                                 const FloodingSceneParams& params);
+
+// The scene of a permeability layout (packing/permeability.h): a periodic box, the particle file
+// as the only [[init]] block, one fluid type driven by a body force along the flow axis (the type
+// and axis `rockflow sweep` drives), the wall model on the wall types, a relax stage at a small
+// time step and a flow stage, and a region over the block (one copy) for its flow rate. It uses
+// the pair, wall, time-step, output and unit fields of FloodingSceneParams, not the slabs'
+// pressures nor the settle and flood stages.
+struct PermeabilitySceneParams : FloodingSceneParams {
+  std::string fluid_type = "fluid";
+  double body_force = 0.02;  // per fluid particle (m = 1) along the flow axis
+  std::uint64_t flow_steps = 2000;
+};
+
+std::string permeability_scene_toml(const packing::PermeabilityLayout& layout,
+                                    const PermeabilitySceneParams& params);
 
 // The mDPD pressure from Warren's fit (2020 paper, Fig. 3b): p = rho + alpha A rho^2 +
 // 2 alpha B rd^4 (rho^3 - c rho^2 + d), alpha = 0.101, c = 4.16, d = 18.

@@ -1,5 +1,7 @@
-// rockprep run: the whole chain from an image stack (or phase labels) to a ready-to-run flooding
-// set-up: segment (when given a grey stack), crop, wall sweep, tiles, packing, scene.
+// rockprep run: the whole chain from an image stack (or phase labels) to a ready-to-run set-up:
+// segment (when given a grey stack), crop, wall sweep, tiles, packing, scene. Two layouts: the
+// 2020 paper's flooding set-up (packing/flooding.h, the default) and a periodic block for
+// permeability sweeps (packing/permeability.h, --layout permeability).
 //
 //   DIR/particles.h5 + particles.xmf   the particle set (docs/scene.md layout), open in ParaView
 //   DIR/scene.toml                      `rockflow run DIR/scene.toml --out OUT` runs it as is
@@ -18,6 +20,7 @@
 #include "mesorock/version.h"
 #include "packing/flooding.h"
 #include "packing/pack.h"
+#include "packing/permeability.h"
 #include "packing/sink.h"
 #include "pipeline/prep/common.h"
 #include "pipeline/prep/flooding_scene.h"
@@ -65,7 +68,22 @@ struct RunArgs {
   bool lammps = false;
   std::string out;
   bool quiet = false;
+  // --layout permeability: the block (mirrored along the flow axis unless --no-mirror) in a
+  // periodic box, one fluid type driven by a body force.
+  std::string layout = "flooding";
+  bool no_mirror = false;
+  double body_force = 0.02;
+  std::uint64_t flow_steps = 2000;
+  // Options of one layout only, when given: an error with the other layout.
+  std::vector<const CLI::Option*> flooding_only, permeability_only;
 };
+
+// The first option of `options` given on the command line, or "".
+std::string first_given(const std::vector<const CLI::Option*>& options) {
+  for (const CLI::Option* o : options)
+    if (o->count() > 0) return o->get_name();
+  return "";
+}
 
 std::string gib(double bytes) {
   char b[32];
@@ -153,6 +171,16 @@ int run_run(const RunArgs& a) {
   if (a.max_particles < 1) throw ConfigError("run: --max-particles must be positive");
   if (!(a.dt > 0) || a.dt > 0.1) throw ConfigError("run: --dt must be in (0, 0.1]");
   if (a.pressure_drop < 0) throw ConfigError("run: --pressure-drop must be >= 0");
+  const bool permeability = a.layout == "permeability";
+  if (permeability) {
+    const std::string o = first_given(a.flooding_only);
+    if (!o.empty()) throw ConfigError("run: " + o + " belongs to --layout flooding");
+    if (!std::isfinite(a.body_force) || !(a.body_force > 0))
+      throw ConfigError("run: --body-force must be a positive number");
+  } else {
+    const std::string o = first_given(a.permeability_only);
+    if (!o.empty()) throw ConfigError("run: " + o + " belongs to --layout permeability");
+  }
   check_output_folder(a.out);
   std::optional<voxel::VoxelBox> crop;
   if (!a.crop.empty()) crop = voxel::parse_voxel_box(a.crop, "--crop");
@@ -184,10 +212,14 @@ int run_run(const RunArgs& a) {
     s.precision(4);
     s << "block " << shape.str() << " voxels of " << voxel_rc[2] << " x " << voxel_rc[1] << " x "
       << voxel_rc[0] << " rc (z, y, x), scale " << scale.str() << "; flow along " << a.flow_axis;
+    if (permeability)
+      s << "; permeability layout, periodic"
+        << (a.no_mirror ? "" : ", mirrored along the flow axis");
     progress.note(s.str());
   }
 
-  // Layout: connected pores, wall sweep, reservoirs and slabs.
+  // Layout: connected pores, wall sweep, and the reservoirs and slabs (flooding) or the mirror
+  // image and periodic box (permeability).
   packing::FloodingOptions fo;
   fo.flow_axis = flow_axis;
   fo.voxel_rc = voxel_rc;
@@ -199,13 +231,34 @@ int run_run(const RunArgs& a) {
   fo.slab_rc = a.slab_rc;
   fo.room_rc = a.room_rc;
   const std::int64_t nblock = shape.voxels();
-  packing::FloodingLayout layout = progress.stage("pore clusters, wall sweep, layout", nblock, [&] {
-    return about_file(name, [&] { return packing::build_flooding_layout(std::move(labels), fo); });
-  });
+  packing::FloodingLayout flooding;
+  packing::PermeabilityLayout periodic;
+  packing::VoxelLayout& layout =
+      permeability ? static_cast<packing::VoxelLayout&>(periodic) : flooding;
+  if (permeability) {
+    packing::PermeabilityOptions po;
+    po.flow_axis = flow_axis;
+    po.voxel_rc = voxel_rc;
+    po.wall_thickness_rc = a.wall_thickness_rc;
+    po.connected_only = !a.all_pores;
+    po.connectivity = a.connectivity;
+    po.mirror = !a.no_mirror;
+    periodic = progress.stage("pore clusters, wall sweep, periodic layout", nblock, [&] {
+      return about_file(name,
+                        [&] { return packing::build_permeability_layout(std::move(labels), po); });
+    });
+  } else {
+    flooding = progress.stage("pore clusters, wall sweep, layout", nblock, [&] {
+      return about_file(name,
+                        [&] { return packing::build_flooding_layout(std::move(labels), fo); });
+    });
+  }
   if (fo.connected_only) {
     progress.note(std::to_string(layout.spanning_clusters) + " of " +
-                  std::to_string(layout.clusters) + " pore clusters join the inlet and outlet; " +
-                  std::to_string(layout.pore_voxels_dropped) +
+                  std::to_string(layout.clusters) +
+                  (permeability ? " pore clusters join the block's faces along " + a.flow_axis
+                                : std::string(" pore clusters join the inlet and outlet")) +
+                  "; " + std::to_string(layout.pore_voxels_dropped) +
                   " pore voxels of the others become solid");
   }
   const auto& rv = layout.role_voxels;
@@ -213,7 +266,11 @@ int run_run(const RunArgs& a) {
                 std::to_string(rv[packing::kRoleOrganicWall] + rv[packing::kRoleInorganicWall]) +
                 " wall voxels (organic " + std::to_string(rv[packing::kRoleOrganicWall]) +
                 ", inorganic " + std::to_string(rv[packing::kRoleInorganicWall]) + ") of " +
-                std::to_string(layout.solid_voxels) + " solid");
+                std::to_string(layout.solid_voxels) + " solid" +
+                (permeability ? " (pore and solid in the block, walls in the box; " +
+                                    std::to_string(rv[packing::kRoleBlockFluid]) +
+                                    " fluid voxels in the box)"
+                              : std::string()));
 
   // Tiles.
   tiledb::TileKey wall_key;
@@ -241,7 +298,7 @@ int run_run(const RunArgs& a) {
   const tiledb::TileSet* fluid_tiles = nullptr;
   bool built_any = false;
   const std::size_t sets_before = db.sets.size();
-  if (wall_fill == packing::Fill::Tiles || slab_fill == packing::Fill::Tiles) {
+  if (wall_fill == packing::Fill::Tiles || (!permeability && slab_fill == packing::Fill::Tiles)) {
     bool built = false;
     progress.stage("wall tiles", 0, [&] {
       find_or_build_tiles(db, wall_key, a.generation, record.dump(), say, &built);
@@ -260,7 +317,10 @@ int run_run(const RunArgs& a) {
   fluid_tiles = db.find(fluid_key);
 
   // Types and roles.
-  std::vector<std::string> types = {"source", "working"};
+  // The permeability layout has one fluid type; its pores are the flooding layout's block-fluid
+  // role, and the reservoir and slab roles have no voxels.
+  std::vector<std::string> types = permeability ? std::vector<std::string>{"fluid"}
+                                                : std::vector<std::string>{"source", "working"};
   auto type_of = [&](const std::string& t) {
     for (std::size_t i = 0; i < types.size(); ++i)
       if (types[i] == t) return static_cast<std::int32_t>(i);
@@ -287,9 +347,11 @@ int run_run(const RunArgs& a) {
     r.tiles = wall_tiles;
     r.thermal = false;
   };
-  fluid_role(packing::kRoleBlockFluid, "source");
-  fluid_role(packing::kRoleInletFluid, "working");
-  fluid_role(packing::kRoleOutletFluid, "source");
+  fluid_role(packing::kRoleBlockFluid, permeability ? "fluid" : "source");
+  fluid_role(packing::kRoleInletFluid, permeability ? "fluid" : "working");
+  fluid_role(packing::kRoleOutletFluid, permeability ? "fluid" : "source");
+  if (permeability)
+    roles[static_cast<std::size_t>(packing::kRoleBlockFluid) - 1].name = "fluid in the pores";
   solid_role(packing::kRoleOrganicWall, "organic_wall", wall_fill);
   solid_role(packing::kRoleInorganicWall, "inorganic_wall", wall_fill);
   solid_role(packing::kRolePushSlab, "push_slab", slab_fill);
@@ -319,6 +381,17 @@ int run_run(const RunArgs& a) {
   meta.box = layout.box;
   meta.created_by = "rockprep run";
   meta.length_unit = "rc";
+  if (permeability) {
+    // What rockflow sweep needs and the scene cannot say for a file block: the driven fluid's
+    // density (its default n_f).
+    meta.provenance_json = nlohmann::json{
+        {"layout", "permeability"},
+        {"fluid_types", {"fluid"}},
+        {"fluid_density", a.fluid_density},
+        {"flow_axis", a.flow_axis},
+        {"mirrored",
+         !a.no_mirror}}.dump();
+  }
   packing::ParticleFileSink file_sink(staged.stage("particles.h5"), meta);
   std::unique_ptr<packing::LammpsDataSink> lammps;
   std::vector<packing::ParticleSink*> sinks{&file_sink};
@@ -360,9 +433,9 @@ int run_run(const RunArgs& a) {
   }
 
   // Scene.
-  FloodingSceneParams sp;
-  sp.name = fs::path(a.out).filename().string().empty() ? "flooding"
-                                                        : fs::path(a.out).filename().string();
+  PermeabilitySceneParams sp;
+  sp.name =
+      fs::path(a.out).filename().string().empty() ? a.layout : fs::path(a.out).filename().string();
   sp.seed = a.seed;
   sp.type_names = types;
   sp.a_fluid = a.a_fluid;
@@ -386,7 +459,18 @@ int run_run(const RunArgs& a) {
   sp.region_every = a.region_every;
   sp.snapshot_every = a.snapshot_every;
   sp.nm_per_rc = nm_per_rc;
-  {
+  sp.body_force = a.body_force;
+  sp.flow_steps = a.flow_steps;
+  if (permeability) {
+    std::ostringstream c;
+    c << "Permeability set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
+      << "): the block" << (a.no_mirror ? "" : " and its mirror image along " + a.flow_axis)
+      << " in a periodic box, the fluid driven by a body force along " << a.flow_axis
+      << ".\nSweep it: rockflow sweep scene.toml --out OUT --forces 0.01,0.02,0.03,0.04 "
+         "(docs/permeability.md); or rockflow run scene.toml --out OUT.\nSeed "
+      << a.seed << "; provenance in run.json.";
+    sp.comment = c.str();
+  } else {
     std::ostringstream c;
     c << "Flooding set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
       << ").\nRun it: rockflow run scene.toml --out OUT (regions.csv, saturation.csv: the "
@@ -400,17 +484,13 @@ int run_run(const RunArgs& a) {
                                     : nlohmann::json{{"rc_per_voxel", scale.rc_per_voxel}}},
       {"crop", a.crop},
       {"voxel_rc_zyx", {voxel_rc[2], voxel_rc[1], voxel_rc[0]}},
+      {"layout", a.layout},
       {"flow_axis", a.flow_axis},
       {"wall_thickness_rc", a.wall_thickness_rc},
       {"connected_only", fo.connected_only},
       {"connectivity", a.connectivity},
-      {"inlet_rc", a.inlet_rc},
-      {"outlet_rc", a.outlet_rc},
-      {"slab_rc", a.slab_rc},
-      {"room_rc", a.room_rc},
       {"wall_fill", a.wall_fill},
       {"fluid_fill", a.fluid_fill},
-      {"slab_fill", a.slab_fill},
       {"wall_density", a.wall_density},
       {"fluid_density", a.fluid_density},
       {"seed", a.seed},
@@ -423,10 +503,23 @@ int run_run(const RunArgs& a) {
         {"B", a.B},
         {"gamma", a.gamma},
         {"rd", a.rd},
-        {"kBT", a.kBT}}},
-      {"back_pressure", sp.back_pressure},
-      {"push_pressure", sp.push_pressure},
-      {"stages", {{"relax", a.relax_steps}, {"settle", a.settle_steps}, {"flood", a.flood_steps}}}};
+        {"kBT", a.kBT}}}};
+  nlohmann::json& parameters = record["parameters"];
+  if (permeability) {
+    parameters["mirror"] = !a.no_mirror;
+    parameters["body_force"] = a.body_force;
+    parameters["stages"] = {{"relax", a.relax_steps}, {"flow", a.flow_steps}};
+  } else {
+    parameters["inlet_rc"] = a.inlet_rc;
+    parameters["outlet_rc"] = a.outlet_rc;
+    parameters["slab_rc"] = a.slab_rc;
+    parameters["room_rc"] = a.room_rc;
+    parameters["slab_fill"] = a.slab_fill;
+    parameters["back_pressure"] = sp.back_pressure;
+    parameters["push_pressure"] = sp.push_pressure;
+    parameters["stages"] = {
+        {"relax", a.relax_steps}, {"settle", a.settle_steps}, {"flood", a.flood_steps}};
+  }
   nlohmann::json tiles_used = nlohmann::json::array();
   for (const tiledb::TileSet* s : {wall_tiles, fluid_tiles})
     if (s)
@@ -440,16 +533,29 @@ int run_run(const RunArgs& a) {
                      {"sets", tiles_used},
                      {"built_here", built_any}};
   const std::array<double, 3> box_lo = layout.box.lo, box_hi = layout.box.hi;
-  record["layout"] = {{"box_lo", box_lo},
-                      {"box_hi", box_hi},
-                      {"block", {layout.block_lo, layout.block_hi}},
-                      {"push_slab", {layout.push_lo, layout.push_hi}},
-                      {"inlet_reservoir", {layout.inlet_lo, layout.block_lo}},
-                      {"outlet_reservoir", {layout.block_hi, layout.outlet_hi}},
-                      {"back_slab", {layout.back_lo, layout.back_hi}},
-                      {"wall_layers_zyx", layout.wall_layers_zyx}};
+  if (permeability) {
+    const std::array<double, 3> block_hi = periodic.block_extent;
+    record["layout"] = {{"kind", "permeability"},
+                        {"box_lo", box_lo},
+                        {"box_hi", box_hi},
+                        {"periodic", {true, true, true}},
+                        {"block_lo", std::array<double, 3>{0, 0, 0}},
+                        {"block_hi", block_hi},
+                        {"mirrored", periodic.mirrored},
+                        {"wall_layers_zyx", layout.wall_layers_zyx}};
+  } else {
+    record["layout"] = {{"kind", "flooding"},
+                        {"box_lo", box_lo},
+                        {"box_hi", box_hi},
+                        {"block", {flooding.block_lo, flooding.block_hi}},
+                        {"push_slab", {flooding.push_lo, flooding.push_hi}},
+                        {"inlet_reservoir", {flooding.inlet_lo, flooding.block_lo}},
+                        {"outlet_reservoir", {flooding.block_hi, flooding.outlet_hi}},
+                        {"back_slab", {flooding.back_lo, flooding.back_hi}},
+                        {"wall_layers_zyx", layout.wall_layers_zyx}};
+  }
   record["voxels"] = {{"block", layout.block_voxels},
-                      {"extended", ext_voxels},
+                      {permeability ? "box" : "extended", ext_voxels},
                       {"pore", layout.pore_voxels},
                       {"pore_dropped", layout.pore_voxels_dropped},
                       {"solid", layout.solid_voxels},
@@ -457,6 +563,7 @@ int run_run(const RunArgs& a) {
                       {"wall_inorganic", rv[packing::kRoleInorganicWall]},
                       {"clusters", layout.clusters},
                       {"spanning_clusters", layout.spanning_clusters}};
+  if (permeability) record["voxels"]["fluid_in_box"] = rv[packing::kRoleBlockFluid];
   nlohmann::json by_type = nlohmann::json::object();
   for (std::size_t t = 0; t < types.size(); ++t) by_type[types[t]] = per_type[t];
   record["particles"] = {{"total", stats.particles}, {"by_type", by_type}, {"by_role", role_table}};
@@ -467,7 +574,9 @@ int run_run(const RunArgs& a) {
     sim::write_particle_xdmf(staged.stage("particles.xmf"),
                              staged.final_path("particles.xmf").parent_path() / "particles.h5",
                              static_cast<std::size_t>(stats.particles));
-    mesorock::write_text_atomically(staged.stage("scene.toml"), flooding_scene_toml(layout, sp));
+    mesorock::write_text_atomically(
+        staged.stage("scene.toml"),
+        permeability ? permeability_scene_toml(periodic, sp) : flooding_scene_toml(flooding, sp));
     // The sets used, with the output (a few MB at most): the packing can be repeated from it.
     tiledb::TileDatabase used;
     for (const tiledb::TileSet* s : {wall_tiles, fluid_tiles})
@@ -495,14 +604,19 @@ int run_run(const RunArgs& a) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::ostringstream s;
   s << "summary: " << layout.block_voxels << " block voxels (" << ext_voxels
-    << " with reservoirs and slabs), " << layout.pore_voxels << " pore, "
-    << rv[packing::kRoleOrganicWall] + rv[packing::kRoleInorganicWall] << " wall; "
-    << stats.particles << " particles:";
+    << (permeability ? a.no_mirror ? " in the periodic box" : " in the periodic box, mirrored"
+                     : " with reservoirs and slabs")
+    << "), " << layout.pore_voxels << " pore, "
+    << rv[packing::kRoleOrganicWall] + rv[packing::kRoleInorganicWall]
+    << (permeability ? " wall in the box; " : " wall; ") << stats.particles << " particles:";
   for (std::size_t t = 0; t < types.size(); ++t) s << " " << types[t] << " " << per_type[t];
   s << "; particle arrays " << gib(static_cast<double>(stats.particles * packing::kParticleBytes))
     << ", peak memory " << gib(static_cast<double>(peak_rss_bytes())) << "; " << seconds << " s";
   if (!a.quiet) std::cout << "rockprep: " << s.str() << "\n";
-  if (!a.quiet)
+  if (!a.quiet && permeability)
+    std::cout << "rockprep: next: rockflow sweep " << (out / "scene.toml").string()
+              << " --out OUT --forces 0.01,0.02,0.03,0.04\n";
+  else if (!a.quiet)
     std::cout << "rockprep: next: rockflow run " << (out / "scene.toml").string() << " --out OUT\n";
   return 0;
 }
@@ -513,10 +627,11 @@ Command add_run_command(CLI::App& rockprep) {
   auto a = std::make_shared<RunArgs>();
   CLI::App* app = rockprep.add_subcommand(
       "run",
-      "The whole chain from a stack to a flooding set-up: segment (a grey stack with --otsu or "
-      "--thresholds) or read phase labels, crop, sweep the surface walls, pack walls from the "
-      "tile database and pores with fluid, add reservoirs and slabs; writes DIR/particles.h5 "
-      "(+ .xmf), DIR/scene.toml for rockflow run, DIR/tiles.h5 and DIR/run.json");
+      "The whole chain from a stack to a flooding set-up (or, with --layout permeability, a "
+      "periodic sample for rockflow sweep): segment (a grey stack with --otsu or --thresholds) "
+      "or read phase labels, crop, sweep the surface walls, pack walls from the tile database "
+      "and pores with fluid, add reservoirs and slabs; writes DIR/particles.h5 (+ .xmf), "
+      "DIR/scene.toml for rockflow run, DIR/tiles.h5 and DIR/run.json");
   a->input.add_to(app);
   a->filters.add_to(app, false);
   app->add_option("--otsu", a->otsu, "Segment a grey stack into K classes by multi-Otsu");
@@ -528,24 +643,42 @@ Command add_run_command(CLI::App& rockprep) {
   app->add_option("--rc-per-voxel", a->rc_per_voxel, "Length scale: rc per voxel edge along x");
   app->add_option("--flow-axis", a->flow_axis, "x (default), y or z")
       ->check(CLI::IsMember({"x", "y", "z"}));
+  app->add_option("--layout", a->layout,
+                  "flooding (default: the 2020 paper's set-up) or permeability (the block, "
+                  "mirrored along the flow axis, in a periodic box; one fluid driven by a body "
+                  "force, for rockflow sweep)")
+      ->check(CLI::IsMember({"flooding", "permeability"}));
+  a->permeability_only = {
+      app->add_flag("--no-mirror", a->no_mirror,
+                    "permeability: do not mirror the block along the flow axis (for a block "
+                    "that is periodic already)"),
+      app->add_option("--body-force", a->body_force,
+                      "permeability: the fluid's body force along the flow axis (default 0.02)"),
+      app->add_option("--flow-steps", a->flow_steps,
+                      "permeability: scene's flow stage after the relax stage (default 2000)")};
   app->add_option("--wall-thickness-rc", a->wall_thickness_rc,
                   "Surface-wall thickness in rc, >= 1 (default 1)");
   app->add_flag("--all-pores", a->all_pores,
                 "Fill every pore (default: only the clusters joining the inlet and outlet faces)");
   app->add_option("--connectivity", a->connectivity, "Pore clusters: 6 (default) or 26")
       ->check(CLI::IsMember({6, 26}));
-  app->add_option("--inlet-rc", a->inlet_rc, "Working-fluid reservoir length, rc (default 4)");
-  app->add_option("--outlet-rc", a->outlet_rc, "Source-fluid reservoir length, rc (default 4)");
-  app->add_option("--slab-rc", a->slab_rc, "Slab thickness, rc (default 1)");
-  app->add_option("--room-rc", a->room_rc,
-                  "Empty room behind the back slab, rc (default: the block's pore volume over "
-                  "its cross-section, + 1)");
+  a->flooding_only.push_back(
+      app->add_option("--inlet-rc", a->inlet_rc, "Working-fluid reservoir length, rc (default 4)"));
+  a->flooding_only.push_back(app->add_option("--outlet-rc", a->outlet_rc,
+                                             "Source-fluid reservoir length, rc (default 4)"));
+  a->flooding_only.push_back(
+      app->add_option("--slab-rc", a->slab_rc, "Slab thickness, rc (default 1)"));
+  a->flooding_only.push_back(
+      app->add_option("--room-rc", a->room_rc,
+                      "Empty room behind the back slab, rc (default: the block's pore volume over "
+                      "its cross-section, + 1)"));
   app->add_option("--wall-fill", a->wall_fill, "tiles (default) or lattice")
       ->check(CLI::IsMember({"tiles", "lattice"}));
   app->add_option("--fluid-fill", a->fluid_fill, "tiles (default) or random")
       ->check(CLI::IsMember({"tiles", "random"}));
-  app->add_option("--slab-fill", a->slab_fill, "tiles (default) or lattice")
-      ->check(CLI::IsMember({"tiles", "lattice"}));
+  a->flooding_only.push_back(
+      app->add_option("--slab-fill", a->slab_fill, "tiles (default) or lattice")
+          ->check(CLI::IsMember({"tiles", "lattice"})));
   app->add_option("--wall-density", a->wall_density, "Wall particle density (default 8)");
   app->add_option("--fluid-density", a->fluid_density, "Fluid particle density (default 6.5)");
   app->add_option("--tiles", a->tiles_db,
@@ -563,15 +696,19 @@ Command add_run_command(CLI::App& rockprep) {
   app->add_option("--gamma", a->gamma, "Dissipation gamma of every pair (default 4.5)");
   app->add_option("--rd", a->rd, "Many-body cutoff rd (default 0.75)");
   app->add_option("--kbt", a->kBT, "kBT (default 1)");
-  app->add_option("--back-pressure", a->back_pressure,
-                  "Back-pressure slab's pressure (default: Warren's mDPD pressure at the fluid "
-                  "density)");
-  app->add_option("--pressure-drop", a->pressure_drop,
-                  "Pushing slab's pressure above the back pressure (default 50)");
+  a->flooding_only.push_back(
+      app->add_option("--back-pressure", a->back_pressure,
+                      "Back-pressure slab's pressure (default: Warren's mDPD pressure at the fluid "
+                      "density)"));
+  a->flooding_only.push_back(
+      app->add_option("--pressure-drop", a->pressure_drop,
+                      "Pushing slab's pressure above the back pressure (default 50)"));
   app->add_option("--relax-steps", a->relax_steps, "Scene: relax stage at dt 0.002 (default 100)");
-  app->add_option("--settle-steps", a->settle_steps,
-                  "Scene: settle stage behind the virtual walls (default 200)");
-  app->add_option("--flood-steps", a->flood_steps, "Scene: flood stage (default 2000)");
+  a->flooding_only.push_back(
+      app->add_option("--settle-steps", a->settle_steps,
+                      "Scene: settle stage behind the virtual walls (default 200)"));
+  a->flooding_only.push_back(
+      app->add_option("--flood-steps", a->flood_steps, "Scene: flood stage (default 2000)"));
   app->add_option("--dt", a->dt, "Scene: time step of settle and flood (default 0.01)");
   app->add_option("--thermo-every", a->thermo_every, "Scene: thermo rows every N steps (50)");
   app->add_option("--region-every", a->region_every, "Scene: region samples every N steps (50)");

@@ -12,6 +12,8 @@
 #include "sim/particle_io.h"
 #include "support/test_support.h"
 #include "tiledb/database.h"
+#include "voxel/raw_io.h"
+#include "voxel/segment.h"
 
 namespace mesorock::packing {
 namespace {
@@ -163,6 +165,151 @@ TEST(PackingCli, RunWritesParticlesAndASceneThatRockflowRuns) {
   EXPECT_EQ(q.vx, p.vx);
 }
 
+// --layout permeability: the block and its mirror image along x in a box periodic on every axis,
+// one fluid type driven along x, walls as in the flooding layout, and nothing else; the scene is
+// accepted by the reader, `rockflow run` and `rockflow sweep` (which finds the driven type, the
+// axis and the fluid density in it).
+TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
+  TempDir tmp;
+  make_stack(tmp);
+  const std::string cd = "cd " + shell_quote(tmp.path().string()) + " && ";
+  CommandResult r = run_command(
+      cd + rockprep() + " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --tiles " +
+          shell_quote(small_db().string()) +
+          " --body-force 0.03 --relax-steps 10 --flow-steps 20 --region-every 10 --seed 5"
+          " --out perm",
+      tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("in the periodic box, mirrored"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("next: rockflow sweep"), std::string::npos) << r.out;
+  const auto run = nlohmann::json::parse(mesorock::test::read_file(tmp / "perm" / "run.json"));
+  EXPECT_EQ(run["parameters"]["layout"], "permeability");
+  EXPECT_EQ(run["layout"]["kind"], "permeability");
+  EXPECT_TRUE(run["layout"]["mirrored"].get<bool>());
+
+  // The scene: periodic box twice the block's 20 voxels x 0.5 rc along x, the block's 8 and 6 rc
+  // across; no slabs or virtual walls; one mobile type, driven along x; frozen walls with the
+  // wall model.
+  const pipeline::Scene scene = pipeline::load_scene(tmp / "perm" / "scene.toml");
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_TRUE(scene.box.periodic[static_cast<size_t>(k)]) << k;
+    EXPECT_DOUBLE_EQ(scene.box.lo[static_cast<size_t>(k)], 0.0) << k;
+  }
+  EXPECT_DOUBLE_EQ(scene.box.hi[0], 2 * 20 * 0.5);
+  EXPECT_DOUBLE_EQ(scene.box.hi[1], 16 * 0.5);
+  EXPECT_DOUBLE_EQ(scene.box.hi[2], 12 * 0.5);
+  EXPECT_TRUE(scene.model.rigid_slabs.empty());
+  EXPECT_TRUE(scene.model.virtual_walls.empty());
+  EXPECT_TRUE(scene.model.wall_model.enabled);
+  EXPECT_NEAR(scene.model.wall_model.wall_density, 8.0, 0.08);  // the wall tiles' measured
+  int mobile = -1;
+  for (int t = 0; t < scene.model.ntypes(); ++t) {
+    const sim::TypeSpec& type = scene.model.types[static_cast<size_t>(t)];
+    if (type.frozen) {
+      EXPECT_TRUE(type.name == "organic_wall" || type.name == "inorganic_wall") << type.name;
+      EXPECT_EQ(type.body_force, (std::array<double, 3>{0, 0, 0})) << type.name;
+      continue;
+    }
+    EXPECT_EQ(mobile, -1) << "a second mobile type " << type.name;
+    mobile = t;
+    EXPECT_EQ(type.name, "fluid");
+    EXPECT_EQ(type.body_force, (std::array<double, 3>{0.03, 0, 0}));
+  }
+  ASSERT_GE(mobile, 0);
+
+  // Particles: no fluid particle in a solid voxel of the true labels (x mirrored in the second
+  // half). Walls are checked below, where no pore is dropped (a dropped pore becomes solid and
+  // may hold walls).
+  const voxel::Volume labels = voxel::read_mhd(tmp / "syn" / "truth.mhd");
+  ASSERT_EQ(labels.shape().nx, 20);
+  sim::ParticleFileMeta meta;
+  const sim::ParticleSet p = sim::read_particle_file(tmp / "perm" / "particles.h5", &meta);
+  EXPECT_EQ(meta.type_names[static_cast<size_t>(mobile)], "fluid");
+  struct Placement {
+    std::int64_t fluid = 0, misplaced_fluid = 0, misplaced_wall = 0;
+  };
+  auto placement = [&labels](const sim::ParticleSet& q, int fluid_type, bool mirrored_x) {
+    const std::uint8_t* label = labels.data<std::uint8_t>();
+    auto voxel_of = [](double c, std::int64_t n) {
+      return std::min(n - 1, std::max<std::int64_t>(0, static_cast<std::int64_t>(c / 0.5)));
+    };
+    Placement m;
+    for (size_t i = 0; i < q.size(); ++i) {
+      std::int64_t x = voxel_of(q.x[i], mirrored_x ? 40 : 20);
+      if (x >= 20) x = 39 - x;
+      const std::int64_t y = voxel_of(q.y[i], 16), z = voxel_of(q.z[i], 12);
+      const std::uint8_t code = label[(z * 16 + y) * 20 + x];
+      const bool pore = code == static_cast<std::uint8_t>(voxel::Phase::kPore) ||
+                        code == static_cast<std::uint8_t>(voxel::Phase::kOrganicPore);
+      if (q.type[i] == fluid_type) {
+        ++m.fluid;
+        m.misplaced_fluid += pore ? 0 : 1;
+      } else {
+        m.misplaced_wall += pore ? 1 : 0;
+      }
+    }
+    return m;
+  };
+  const Placement placed = placement(p, mobile, true);
+  const std::int64_t fluid = placed.fluid;
+  EXPECT_GT(fluid, 0);
+  EXPECT_EQ(placed.misplaced_fluid, 0);
+  // Counts: the fluid fills twice the block's (kept) pore voxels at density 6.5, within 3
+  // standard deviations; every role within 3 of its own expectation.
+  const double pore_voxels = run["voxels"]["pore"].get<double>();
+  ASSERT_GT(pore_voxels, 0);
+  EXPECT_EQ(run["voxels"]["box"].get<std::int64_t>(), 2 * 12 * 16 * 20);
+  bool found_fluid_role = false;
+  for (const auto& role : run["particles"]["by_role"]) {
+    const double n = role["particles"].get<double>(), e = role["expected"].get<double>(),
+                 sd = role["standard_deviation"].get<double>();
+    EXPECT_LE(std::abs(n - e), 3 * sd + 1e-9) << role.dump();
+    if (role["type"] == "fluid") {
+      found_fluid_role = true;
+      EXPECT_EQ(role["voxels"].get<double>(), 2 * pore_voxels);
+      EXPECT_NEAR(e, 2 * pore_voxels * 0.125 * 6.5, 0.01 * e);  // tiles' density within 1%
+      EXPECT_EQ(static_cast<double>(fluid), n);
+      EXPECT_LE(std::abs(n - 2 * pore_voxels * 0.125 * 6.5), 3 * sd + 0.01 * e) << role.dump();
+    }
+  }
+  EXPECT_TRUE(found_fluid_role);
+
+  // rockflow runs it as is, and rockflow sweep drives the fluid along x at the recorded density.
+  r = run_command(
+      cd + shell_quote(MESOROCK_ROCKFLOW) + " run perm/scene.toml --out flow --threads 1",
+      tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run_command(cd + shell_quote(MESOROCK_ROCKFLOW) +
+                      " sweep perm/scene.toml --out sweep --forces 0.02 --warmup 20"
+                      " --block-steps 10 --window 2 --measure-blocks 2 --max-steps 200"
+                      " --viscosity 7 --threads 1",
+                  tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto sweep = nlohmann::json::parse(mesorock::test::read_file(tmp / "sweep" / "sweep.json"));
+  EXPECT_EQ(sweep["flow_axis"], "x");
+  EXPECT_EQ(sweep["driven_types"], nlohmann::json::array({"fluid"}));
+  EXPECT_DOUBLE_EQ(sweep["fluid_density"].get<double>(), 6.5);
+  EXPECT_EQ(sweep["fluid_particles"].get<std::int64_t>(), fluid);
+
+  // Flow along y without the mirror: the block as it is, driven along y.
+  r = run_command(cd + rockprep() +
+                      " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --flow-axis y"
+                      " --no-mirror --all-pores --tiles " +
+                      shell_quote(small_db().string()) + " --seed 5 --quiet --out perm_y",
+                  tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const pipeline::Scene scene_y = pipeline::load_scene(tmp / "perm_y" / "scene.toml");
+  EXPECT_DOUBLE_EQ(scene_y.box.hi[0], 20 * 0.5);
+  EXPECT_DOUBLE_EQ(scene_y.box.hi[1], 16 * 0.5);
+  EXPECT_EQ(scene_y.model.types[0].body_force, (std::array<double, 3>{0, 0.02, 0}));
+  // Every pore kept: no fluid in solid, no wall in a pore.
+  const Placement placed_y =
+      placement(sim::read_particle_file(tmp / "perm_y" / "particles.h5"), 0, false);
+  EXPECT_GT(placed_y.fluid, 0);
+  EXPECT_EQ(placed_y.misplaced_fluid, 0);
+  EXPECT_EQ(placed_y.misplaced_wall, 0);
+}
+
 TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
   TempDir tmp;
   make_stack(tmp);
@@ -190,6 +337,17 @@ TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
       {"run syn/truth.mhd --rc-per-voxel 0.5 --crop 0:5,0:5,0:50 --out o", "syn/truth.mhd"},
       {"run syn/grey --rc-per-voxel 0.5 --out o", "not a phase-label volume"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --tiles syn/truth.raw --out o", "truth.raw"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --layout periodic --out o", "--layout"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --inlet-rc 3 --out o",
+       "--inlet-rc belongs to --layout flooding"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --no-mirror --out o",
+       "--no-mirror belongs to --layout permeability"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --body-force 0 --out o",
+       "--body-force"},
+      {"run closed.raw --shape 8,8,8 --dtype uint8 --labels 1=pore,3=inorganic --rc-per-voxel "
+       "0.5 --layout permeability --tiles " +
+           shell_quote(small_db().string()) + " --out o",
+       "no pore cluster joins the block's faces along x"},
   };
   for (const Case& c : cases) {
     const CommandResult r = run_command(cd + " " + c.args, tmp.path());
