@@ -32,6 +32,7 @@ log() { echo "$@" | tee -a "$out/summary.txt"; }
   echo "cpu: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
 } | tee "$out/summary.txt"
 
+if [ -z "${SKIP_TESTS:-}" ]; then  # SKIP_TESTS=1: the carry may hold rockflow alone
 $bin/unit_gpu 2>&1 | tee "$out/unit_gpu.log" | tail -4
 $bin/unit_sim 2>&1 | tee "$out/unit_sim.log" | tail -3
 # The domain decomposition on the GPU: 2 ranks sharing the device, against the single-rank GPU
@@ -39,6 +40,7 @@ $bin/unit_sim 2>&1 | tee "$out/unit_sim.log" | tail -3
 if command -v mpirun >/dev/null; then
   OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 MESOROCK_TEST_BACKEND=cuda \
     mpirun -np 2 --oversubscribe $bin/unit_mpi 2>&1 | tee "$out/unit_mpi.log" | tail -3
+fi
 fi
 
 if [ "$mode" = study ]; then
@@ -55,32 +57,58 @@ if [ "$mode" = study ]; then
   exit 0
 fi
 if [ "$mode" = samples ]; then
-  # The shale permeability sweep (samples/06_shale_permeability, prepared with --prep-only).
-  if [ -f .carry/samples/shale/scene.toml ]; then
+  # Results go to one archive (the device tool returns a few files): $out/results.tgz.
+  res="$out/results"
+  mkdir -p "$res"
+  # 1. The accuracy study, alone on the GPU (its timings must not share the machine).
+  if [ -z "${SKIP_STUDY:-}" ]; then
     start=$(date +%s)
-    $bin/rockflow sweep .carry/samples/shale/scene.toml --out "$out/shale_sweep" --backend cuda \
-      ${SWEEP_ARGS:-} 2>&1 | tee "$out/shale_sweep.log" | tail -8
-    log "shale sweep: $(( $(date +%s) - start )) s"
+    $bin/rockflow study --size full --backend cuda --out "$res/accuracy" 2>&1 | tr '\r' '\n' > "$res/study.log"
+    log "study: $(( $(date +%s) - start )) s; $(tail -1 "$res/study.log")"
   fi
-  # Load balance: the flooding set-up of samples/01 (full) on 4 CPU ranks, slabs vs RCB.
+  # 2. The shale permeability sweep (samples/06_shale_permeability --size full, prepared with
+  #    --prep-only on the CPU machine) on the GPU, in the background...
+  if [ -f .carry/samples/shale/scene.toml ]; then
+    rm -rf /tmp/shale06 && mkdir -p /tmp/shale06 && cp -r .carry/samples/shale /tmp/shale06/setup
+    ( start=$(date +%s)
+      bash samples/06_shale_permeability/run.sh --size full --out /tmp/shale06 --sweep-only \
+        --backend cuda --rockflow "$bin/rockflow" 2>&1 | tr '\r' '\n' > "$res/shale_sweep.log"
+      echo "exit $? after $(( $(date +%s) - start )) s" >> "$res/shale_sweep.log"
+      cp -r /tmp/shale06/sweep "$res/shale_sweep" ) &
+    sweep_pid=$!
+  fi
+  # 3. ...while the CPU cores run the load-balance benchmark: the flooding set-up of
+  #    samples/01 (rockprep run, 10,100 steps) on 4 CPU ranks: equal slabs along the flow axis,
+  #    RCB along it, and RCB free to cut any axis.
   if [ -f .carry/samples/flood/scene.toml ] && command -v mpirun >/dev/null; then
-    for method in slabs rcb; do
-      scene="$out/flood_$method.toml"
+    for spec in slabs:x rcb:x rcb:xyz; do
+      method=${spec%%:*}
+      axes=$(echo "${spec#*:}" | sed 's/./"&", /g; s/, $//')
+      name=${method}_${spec#*:}
+      dir=/tmp/lb_$name
+      rm -rf "$dir" && mkdir -p "$dir" && cp .carry/samples/flood/particles.h5 "$dir/"
       { cat .carry/samples/flood/scene.toml
-        printf '\n[decomposition]\nmethod = "%s"\nrebalance_every = 1000\n' "$method"; } > "$scene"
+        printf '\n[decomposition]\nmethod = "%s"\naxes = [%s]\nrebalance_every = 1000\n' \
+          "$method" "$axes"
+      } > "$dir/scene.toml"
       start=$(date +%s)
-      OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=4 \
-        timeout 240 mpirun -np 4 --bind-to none $bin/rockflow run "$scene" --out "$out/lb_$method" \
-        --threads 4 2>&1 | tail -3
-      log "load balance $method: $(( $(date +%s) - start )) s"
-      python3 - "$out/lb_$method/balance.csv" <<'PY' | tee -a "$out/summary.txt"
-import csv, sys
-rows = [r for r in csv.reader(l for l in open(sys.argv[1]) if not l.startswith("#"))][1:]
-imb = [float(r[3]) for r in rows]
-print("  %s: rows %d, steps %s..%s, imbalance mean %.3f max %.3f last %.3f" % (sys.argv[1], len(imb), rows[0][0], rows[-1][0], sum(imb) / len(imb), max(imb), imb[-1]))
-PY
+      OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=${LB_THREADS:-3} \
+        timeout ${LB_TIMEOUT:-280} mpirun -np 4 --bind-to none $bin/rockflow run "$dir/scene.toml" \
+        --out "$dir/out" --threads ${LB_THREADS:-3} > "$res/lb_$name.log" 2>&1
+      log "load balance $name: exit $?, $(( $(date +%s) - start )) s"
+      mkdir -p "$res/lb_$name"
+      cp "$dir/scene.toml" "$res/lb_$name/"
+      find "$dir/out" -maxdepth 1 -type f \( -name '*.csv*' -o -name '*.json*' \) -exec cp {} "$res/lb_$name/" \;
     done
   fi
+  [ -n "${sweep_pid:-}" ] && wait "$sweep_pid"
+  log "shale sweep: $(tail -1 "$res/shale_sweep.log" 2>/dev/null)"
+  # 4. The two small cases changed after the verify run, again on the GPU.
+  for c in ${RECHECK:-no-penetration darcy-linearity}; do
+    $bin/rockflow validate $c --size small --backend cuda --json 2>>"$res/validate.log" >> "$res/validate.jsonl"
+    log "validate $c small cuda: exit $?"
+  done
+  tar czf "$out/results.tgz" -C "$out" results && rm -rf "$res"
   exit 0
 fi
 

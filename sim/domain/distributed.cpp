@@ -148,13 +148,21 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     const std::uint64_t every = opt_.decomposition.rebalance_every;
     const bool rcb = opt_.decomposition.method == DecompositionMethod::RCB;
     while (steps > 0) {
+      // A re-balance due at the end of the last chunk happens here, just before the step whose
+      // exchange moves the particles: observables read in between (stress, bins, regions) still
+      // see storage and cell list of one geometry (seen: a segfault in the virial when the new
+      // cell grid met the old storage).
+      if (rebalance_pending_) {
+        rebalance();
+        rebalance_pending_ = false;
+      }
       std::uint64_t n = steps;
       if (rcb && every > 0) n = std::min(n, every - engine_->step() % every);
       engine_->advance(n);
       steps -= n;
       host_current_ = false;
       cells_current_ = true;
-      if (rcb && every > 0 && engine_->step() % every == 0) rebalance();
+      if (rcb && every > 0 && engine_->step() % every == 0) rebalance_pending_ = true;
       if (opt_.on_run) opt_.on_run(n, total_);
     }
   }
@@ -536,6 +544,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   std::string pass_name_;
   bool host_current_ = false;
   bool cells_current_ = true;  // the cell list matches the cell grid (no re-balance since)
+  bool rebalance_pending_ = false;  // re-balance before the next step
   std::vector<double> last_costs_;
   std::unordered_map<std::int64_t, std::int32_t> id_index_;
   size_t total_ = 0;
