@@ -148,13 +148,13 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     const std::uint64_t every = opt_.decomposition.rebalance_every;
     const bool rcb = opt_.decomposition.method == DecompositionMethod::RCB;
     while (steps > 0) {
-      // A re-balance due at the end of the last chunk happens here, just before the step whose
-      // exchange moves the particles: observables read in between (stress, bins, regions) still
-      // see storage and cell list of one geometry (seen: a segfault in the virial when the new
-      // cell grid met the old storage).
-      if (rebalance_pending_) {
-        rebalance();
-        rebalance_pending_ = false;
+      // A re-balance at the end of the last chunk chose new regions; the engine takes them here,
+      // just before the step whose exchange moves the particles, so observables read in between
+      // (stress, bins, regions) see storage and cell list of one geometry (seen: a segfault in
+      // the virial when the new cell grid met the old storage).
+      if (geometry_pending_) {
+        set_local_geometry();
+        geometry_pending_ = false;
       }
       std::uint64_t n = steps;
       if (rcb && every > 0) n = std::min(n, every - engine_->step() % every);
@@ -162,7 +162,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       steps -= n;
       host_current_ = false;
       cells_current_ = true;
-      if (rcb && every > 0 && engine_->step() % every == 0) rebalance_pending_ = true;
+      if (rcb && every > 0 && engine_->step() % every == 0) rebalance();
       if (opt_.on_run) opt_.on_run(n, total_);
     }
   }
@@ -315,11 +315,13 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   std::vector<double> rank_costs() override {
     const std::vector<double> cost = particle_costs();
     std::vector<double> per_rank(static_cast<size_t>(comm_->size()), 0.0);
+    // Under the regions the next step will use (new ones right after a re-balance).
+    const std::vector<LocalRegion<Real>> owners = geometry_pending_ ? owner_regions() : owners_;
     size_t k = 0;
     for_owned([&](int i) {
       Real x[3] = {state_.x[i], state_.y[i], state_.z[i]};
       region_.wrap(x);
-      const int q = owner_of(x);
+      const int q = owner_in(owners, x);
       per_rank[static_cast<size_t>(q < 0 ? comm_->rank() : q)] += cost[k++];
     });
     comm_->sum(per_rank.data(), static_cast<int>(per_rank.size()));
@@ -456,8 +458,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       comm_->sum(h.data(), bins);
       return h;
     });
-    set_local_geometry();
-    cells_current_ = false;
+    geometry_pending_ = true;
   }
 
   // The engine's box (the region widened by the halo on faces inside the global box, which are
@@ -487,16 +488,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       region_.periodic[a] = box_.periodic[s];
     }
     state_.grid = CellGrid<Real>::make(b, Real(1), opt_.cells_per_cutoff);
-    // Every rank's region in the run's precision: the owner test matches the migration test.
-    owners_.clear();
-    for (const Region& r : decomp_.regions()) {
-      LocalRegion<Real> o = region_;
-      for (int a = 0; a < 3; ++a) {
-        o.lo[a] = static_cast<Real>(r.lo[static_cast<size_t>(a)]);
-        o.hi[a] = static_cast<Real>(r.hi[static_cast<size_t>(a)]);
-      }
-      owners_.push_back(o);
-    }
+    owners_ = owner_regions();
     halo_boxes_.clear();
     halo_rank_.clear();
     for (const HaloTarget& t : halo_targets(decomp_, box_, comm_->rank(), h)) {
@@ -512,9 +504,25 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     }
   }
 
-  int owner_of(const Real x[3]) const {
-    for (size_t q = 0; q < owners_.size(); ++q)
-      if (owners_[q].contains(x)) return static_cast<int>(q);
+  // Every rank's region of the decomposition in the run's precision: the owner test matches the
+  // migration test.
+  std::vector<LocalRegion<Real>> owner_regions() const {
+    std::vector<LocalRegion<Real>> out;
+    for (const Region& r : decomp_.regions()) {
+      LocalRegion<Real> o = region_;
+      for (int a = 0; a < 3; ++a) {
+        o.lo[a] = static_cast<Real>(r.lo[static_cast<size_t>(a)]);
+        o.hi[a] = static_cast<Real>(r.hi[static_cast<size_t>(a)]);
+      }
+      out.push_back(o);
+    }
+    return out;
+  }
+
+  int owner_of(const Real x[3]) const { return owner_in(owners_, x); }
+  static int owner_in(const std::vector<LocalRegion<Real>>& owners, const Real x[3]) {
+    for (size_t q = 0; q < owners.size(); ++q)
+      if (owners[q].contains(x)) return static_cast<int>(q);
     return -1;
   }
 
@@ -544,7 +552,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   std::string pass_name_;
   bool host_current_ = false;
   bool cells_current_ = true;  // the cell list matches the cell grid (no re-balance since)
-  bool rebalance_pending_ = false;  // re-balance before the next step
+  bool geometry_pending_ = false;  // new regions chosen; the engine takes them before the next step
   std::vector<double> last_costs_;
   std::unordered_map<std::int64_t, std::int32_t> id_index_;
   size_t total_ = 0;
