@@ -10,9 +10,9 @@ namespace mesorock::pipeline {
 
 enum ExitCode : int {
   kExitOk = 0,
-  kExitFailed = 1,     // a validation quantity failed, or an unexpected internal error
-  kExitBadInput = 2,   // bad usage, bad file, missing backend
-  kExitNumerical = 3,  // the run blew up (NaN, runaway velocity): a diagnostic was printed
+  kExitFailed = 1,         // a validation quantity failed, or an unexpected internal error
+  kExitBadInput = 2,       // bad usage, bad file, missing backend
+  kExitNumerical = 3,      // the run blew up (NaN, runaway velocity): a diagnostic was printed
   kExitInterrupted = 130,  // Ctrl-C or SIGTERM (128 + SIGINT, the shell's convention)
 };
 

@@ -54,8 +54,8 @@ struct RegionOutputSpec {
 };
 
 struct OutputSpec {
-  std::uint64_t thermo_every = 100;  // rows of thermo.csv; 0 = off
-  std::uint64_t snapshot_every = 0;  // HDF5 snapshots; 0 = only the final state
+  std::uint64_t thermo_every = 100;    // rows of thermo.csv; 0 = off
+  std::uint64_t snapshot_every = 0;    // HDF5 snapshots; 0 = only the final state
   std::uint64_t checkpoint_every = 0;  // OUT/checkpoint.h5 every N steps; 0 = none (Ctrl-C still)
   bool final_snapshot = true;
   // Stages whose samples enter time averages (summary, profiles, fields); empty = the last stage.

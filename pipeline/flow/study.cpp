@@ -70,7 +70,6 @@ bool is_instability(const std::exception& e) {
          dynamic_cast<const NumericalError*>(&e) != nullptr;
 }
 
-
 // Sizes of every study at one size (tiny / small / full).
 struct Sizes {
   // Time step and precision.
@@ -639,7 +638,7 @@ ScaleTiming time_at_scale(const Context& c, const BuiltSystem& big, sim::Precisi
       say(c, what + ": " + fmt(r.mps.back(), 4) + " MPS/s (" + std::to_string(r.particles) +
                  " particles)");
     } catch (const std::exception& e) {
-    if (!is_instability(e)) throw;
+      if (!is_instability(e)) throw;
       say(c, std::string("unstable: ") + e.what());
       r.mps.push_back(NAN);
       s.reset();
@@ -1011,7 +1010,7 @@ StudyResult run_reorder(const Context& c) {
         row["stable"] = true;
         say(c, what + ": " + fmt(mps, 4) + " MPS/s");
       } catch (const std::exception& e) {
-    if (!is_instability(e)) throw;
+        if (!is_instability(e)) throw;
         row["mps"] = nullptr;
         row["speedup_vs_default"] = nullptr;
         row["temperature_end"] = nullptr;

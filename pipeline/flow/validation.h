@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/flow/systems.h"
 #include "pipeline/flow/progress.h"
+#include "pipeline/flow/systems.h"
 #include "sim/model.h"
 #include "sim/simulation.h"
 

@@ -407,13 +407,13 @@ CaseResult run_darcy_linearity(const ValidateOptions& o) {
   r.quantities.push_back(judged("intercept of q = a + b G (rc/tau)", line.intercept,
                                 line.intercept_error, 0, 2 * line.intercept_error,
                                 "Darcy's law goes through the origin; issue: within 2 error bars"));
-  r.quantities.push_back(judged("chi^2 of the straight line (" + std::to_string(line.dof) + " dof)",
-                                line.chi2, 0,
-                                chi2_99_estimated_errors(line.dof, static_cast<int>(so.measure_blocks)), 0,
-                                "linear within the error bars: below the 99% point (each error "
-                                "estimated from " + std::to_string(so.measure_blocks) +
-                                    " blocks: dof x F_0.99(dof, blocks - 1))",
-                                Comparison::AtMost));
+  r.quantities.push_back(
+      judged("chi^2 of the straight line (" + std::to_string(line.dof) + " dof)", line.chi2, 0,
+             chi2_99_estimated_errors(line.dof, static_cast<int>(so.measure_blocks)), 0,
+             "linear within the error bars: below the 99% point (each error "
+             "estimated from " +
+                 std::to_string(so.measure_blocks) + " blocks: dof x F_0.99(dof, blocks - 1))",
+             Comparison::AtMost));
   r.quantities.push_back(judged("slope / its error", line.slope / line.slope_error, 0, 5, 0,
                                 "the flow is resolved: the test can tell a line through 0",
                                 Comparison::AtLeast));

@@ -53,7 +53,8 @@ void TileGenerationArgs::add_to(CLI::App* app, const std::string& prefix) {
   app->add_option(p + "decorrelate-steps", decorrelate, "Tiles: steps between cuts (default 500)");
   app->add_option(p + "dt", dt, "Tiles: time step of the equilibration (default 0.01)");
   app->add_option(p + "seed", seed, "Tiles: seed of the tile generation (default 1)");
-  app->add_option("--threads", threads, "CPU threads of the solver and the packing (default: all cores)")
+  app->add_option("--threads", threads,
+                  "CPU threads of the solver and the packing (default: all cores)")
       ->check(CLI::NonNegativeNumber);
 }
 

@@ -45,8 +45,11 @@ fi
 
 if [ "$mode" = study ]; then
   start=$(date +%s)
-  $bin/rockflow study --size full --backend cuda --out "$out/accuracy" ${STUDY_ONLY:+--only $STUDY_ONLY} \
-    2>&1 | tee "$out/study.log" | grep -v '\r' | tail -5
+  # study.json and the CSVs in one archive (the device tool brings back only a few files).
+  rm -rf /tmp/mesorock-study && mkdir -p /tmp/mesorock-study
+  $bin/rockflow study --size full --backend cuda --out /tmp/mesorock-study/accuracy \
+    ${STUDY_ONLY:+--only $STUDY_ONLY} 2>&1 | tee "$out/study.log" | grep -v '\r' | tail -5
+  tar czf "$out/accuracy.tgz" -C /tmp/mesorock-study accuracy
   log "study: $(( $(date +%s) - start )) s"
   # The watchdog's cost after the study (the same binary): off and on in one process.
   for p in ${WATCHDOG_CASES:-"porous 2100000 400" "bulk 1000000 400" "porous 16000000 200"}; do
@@ -57,14 +60,17 @@ if [ "$mode" = study ]; then
   exit 0
 fi
 if [ "$mode" = samples ]; then
-  # Results go to one archive (the device tool returns a few files): $out/results.tgz.
-  res="$out/results"
-  mkdir -p "$res"
+  # Results go to one archive, re-packed after every stage (the device tool returns only a few
+  # files, and a run cut off by its time limit keeps what the last pack holds): $out/results.tgz.
+  res=/tmp/mesorock-results/results
+  rm -rf "$res" && mkdir -p "$res"
+  pack() { tar czf "$out/results.tgz.part" -C "$(dirname "$res")" results && mv "$out/results.tgz.part" "$out/results.tgz"; }
   # 1. The accuracy study, alone on the GPU (its timings must not share the machine).
   if [ -z "${SKIP_STUDY:-}" ]; then
     start=$(date +%s)
     $bin/rockflow study --size full --backend cuda --out "$res/accuracy" 2>&1 | tr '\r' '\n' > "$res/study.log"
     log "study: $(( $(date +%s) - start )) s; $(tail -1 "$res/study.log")"
+    pack
   fi
   # 2. The shale permeability sweep (samples/06_shale_permeability --size full, prepared with
   #    --prep-only on the CPU machine) on the GPU, in the background...
@@ -99,6 +105,7 @@ if [ "$mode" = samples ]; then
       mkdir -p "$res/lb_$name"
       cp "$dir/scene.toml" "$res/lb_$name/"
       find "$dir/out" -maxdepth 1 -type f \( -name '*.csv*' -o -name '*.json*' \) -exec cp {} "$res/lb_$name/" \;
+      pack
     done
   fi
   [ -n "${sweep_pid:-}" ] && wait "$sweep_pid"
@@ -108,7 +115,7 @@ if [ "$mode" = samples ]; then
     $bin/rockflow validate $c --size small --backend cuda --json 2>>"$res/validate.log" >> "$res/validate.jsonl"
     log "validate $c small cuda: exit $?"
   done
-  tar czf "$out/results.tgz" -C "$out" results && rm -rf "$res"
+  pack
   exit 0
 fi
 

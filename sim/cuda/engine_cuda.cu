@@ -636,8 +636,8 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     const double limit = watchdog_speed_limit(this->watchdog_, static_cast<double>(dt_));
     watchdog_kernel<Real><<<blocks_for(n_), kBlock>>>(view(), static_cast<Real>(limit * limit),
                                                       watchdog_record_.get());
-    watchdog_resolve_kernel<Real><<<1, 256>>>(view(), static_cast<Real>(limit * limit),
-                                              watchdog_record_.get());
+    watchdog_resolve_kernel<Real>
+        <<<1, 256>>>(view(), static_cast<Real>(limit * limit), watchdog_record_.get());
     if (++watchdog_since_poll_ >= this->watchdog_.poll_steps) watchdog_poll(false);
   }
   void watchdog_poll(bool now) {

@@ -30,8 +30,7 @@ namespace {
 // stages with different dt, profiles, fields, a region with saturation and snapshots: every output
 // a resumed run has to continue.
 const std::string kScene = mesorock::test::read_file(fs::path(MESOROCK_SOURCE_DIR) / "tests" /
-                                                     "data" / "scenes" /
-                                                     "resume_all_outputs.toml");
+                                                     "data" / "scenes" / "resume_all_outputs.toml");
 
 std::string rockflow_run(const fs::path& scene, const fs::path& out, const std::string& extra) {
   return mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +

@@ -77,9 +77,9 @@ TEST(StudyCommand, TinyRunHoldsEveryStudyAndTheReportShowsThem) {
   std::set<double> dts;
   for (const auto& row : studies["timestep"]["rows"]) {
     dts.insert(row["dt"].get<double>());
-    for (const char* k : {"temperature", "pressure", "pressure_vs_warren", "viscosity",
-                          "permeability", "permeability_vs_reference_dt", "ns_per_particle_tau",
-                          "mps_at_scale", "stable"})
+    for (const char* k :
+         {"temperature", "pressure", "pressure_vs_warren", "viscosity", "permeability",
+          "permeability_vs_reference_dt", "ns_per_particle_tau", "mps_at_scale", "stable"})
       EXPECT_TRUE(row.contains(k)) << k;
   }
   EXPECT_EQ(dts, (std::set<double>{0.005, 0.01, 0.02, 0.03, 0.04}));
@@ -125,10 +125,10 @@ TEST(StudyCommand, TinyRunHoldsEveryStudyAndTheReportShowsThem) {
     EXPECT_TRUE(row.contains("within_bare_noise")) << name;
   }
   EXPECT_GE(bare, 5);
-  for (const char* s : {"mdpd", "thermostat", "body_force", "wall_model", "virtual_wall",
-                        "rigid_slab", "injection", "stress", "profile", "region_counts",
-                        "region_pressure", "virtual_wall_passed", "injection_never_due",
-                        "observables_never_sampled"})
+  for (const char* s :
+       {"mdpd", "thermostat", "body_force", "wall_model", "virtual_wall", "rigid_slab", "injection",
+        "stress", "profile", "region_counts", "region_pressure", "virtual_wall_passed",
+        "injection_never_due", "observables_never_sampled"})
     EXPECT_TRUE(scenes.count(s)) << s;
   EXPECT_TRUE(studies["effects"]["summary"].contains("bare_ms_per_step_sd"));
 
