@@ -165,7 +165,6 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       engine_->advance(n);
       steps -= n;
       host_current_ = false;
-      cells_current_ = true;
       if (rcb && every > 0 && engine_->step() % every == 0) rebalance();
       if (opt_.on_run) opt_.on_run(n, total_);
     }
@@ -432,11 +431,10 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
                   : Decomposition::rcb(box_, comm_->size(), weight, d.axes, 0.5 * d.halo);
   }
 
-  // Each owned particle's cost (storage order of the owned ones): neighbours x type weight.
-  // Measured over the cell list of the last force pass; after a re-balance (new regions, new
-  // cell grid, storage not yet re-sorted) the costs measured just before it are reused.
+  // Each owned particle's cost (storage order of the owned ones): neighbours x type weight,
+  // measured over the cell list of the last force pass (a re-balance changes the engine's cell
+  // grid only at the start of the next run, so the list always matches its grid here).
   std::vector<double> particle_costs() {
-    if (!cells_current_) return last_costs_;
     std::vector<int> counts;
     engine_->neighbour_counts(counts);
     sync();
@@ -445,7 +443,6 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       const double per = ((frozen_mask_ >> state_.type[i]) & 1u) ? kFrozenCost : kMobileCost;
       cost.push_back(per * std::max(1, counts[static_cast<size_t>(i)]));
     });
-    last_costs_ = cost;
     return cost;
   }
 
@@ -556,9 +553,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   std::unique_ptr<Engine<Real>> engine_;
   std::string pass_name_;
   bool host_current_ = false;
-  bool cells_current_ = true;      // the cell list matches the cell grid (no re-balance since)
   bool geometry_pending_ = false;  // new regions chosen; the engine takes them before the next step
-  std::vector<double> last_costs_;
   std::unordered_map<std::int64_t, std::int32_t> id_index_;
   size_t total_ = 0;
   std::uint32_t frozen_mask_ = 0, slab_mask_ = 0;
