@@ -36,6 +36,7 @@
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
+#include "pipeline/flow/viscosity_calibration.h"
 #include "pipeline/flow/wall_liquid.h"
 #include "sim/domain/communicator.h"
 #include "sim/init.h"
@@ -439,25 +440,7 @@ ViscosityResult measure_viscosity_at(const Context& c, const Prepared& p, double
     const double width = Lz / bins;
     auto eta_of = [&](const std::vector<double>& u, const std::vector<double>& err,
                       double* worst_chi2) {
-      double inv_var = 0, weighted = 0;
-      for (int half = 0; half < 2; ++half) {
-        std::vector<double> z, uu, ee;
-        for (int b = half * bins / 2; b < (half + 1) * bins / 2; ++b) {
-          z.push_back((b + 0.5) * width);
-          uu.push_back(u[static_cast<size_t>(b)]);
-          ee.push_back(std::max(err[static_cast<size_t>(b)], 1e-12));
-        }
-        double zc = 0;
-        for (double v : z) zc += v;
-        const ParabolaFit f = fit_parabola(z, uu, ee, zc / static_cast<double>(z.size()));
-        const double sign = half == 0 ? 1.0 : -1.0;
-        const double eta = -sign * p.fluid_density * p.g / (2 * f.c2);
-        const double e = std::abs(eta) * f.c2_error / std::abs(f.c2);
-        inv_var += 1 / (e * e);
-        weighted += eta / (e * e);
-        if (worst_chi2) *worst_chi2 = std::max(*worst_chi2, f.chi2_per_dof);
-      }
-      return weighted / inv_var;
+      return reverse_poiseuille_eta(u, err, width, p.fluid_density, p.g, worst_chi2);
     };
     const auto u = profile.velocity(0);
     std::vector<double> ones(static_cast<size_t>(bins), 1.0);

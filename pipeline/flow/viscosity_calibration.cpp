@@ -17,6 +17,30 @@ namespace mesorock::pipeline {
 
 namespace fs = std::filesystem;
 
+double reverse_poiseuille_eta(const std::vector<double>& u, const std::vector<double>& err,
+                              double width, double rho, double g, double* worst_chi2) {
+  const int bins = static_cast<int>(u.size());
+  double inv_var = 0, weighted = 0;
+  for (int half = 0; half < 2; ++half) {
+    std::vector<double> z, uu, ee;
+    for (int b = half * bins / 2; b < (half + 1) * bins / 2; ++b) {
+      z.push_back((b + 0.5) * width);
+      uu.push_back(u[static_cast<size_t>(b)]);
+      ee.push_back(std::max(err[static_cast<size_t>(b)], 1e-12));
+    }
+    double zc = 0;
+    for (double v : z) zc += v;
+    const ParabolaFit f = fit_parabola(z, uu, ee, zc / static_cast<double>(z.size()));
+    const double sign = half == 0 ? 1.0 : -1.0;
+    const double eta = -sign * rho * g / (2 * f.c2);
+    const double e = std::abs(eta) * f.c2_error / std::abs(f.c2);
+    inv_var += 1 / (e * e);
+    weighted += eta / (e * e);
+    if (worst_chi2) *worst_chi2 = std::max(*worst_chi2, f.chi2_per_dof);
+  }
+  return weighted / inv_var;
+}
+
 ReversePoiseuille measure_reverse_poiseuille(BuiltSystem s, double g, double rho,
                                              std::uint64_t equilibrate, std::uint64_t sample,
                                              int blocks, const sim::SimulationOptions& options) {
@@ -41,28 +65,9 @@ ReversePoiseuille measure_reverse_poiseuille(BuiltSystem s, double g, double rho
     for (size_t q = 0; q < sums.size(); ++q) blk[q] += sums[q];
   }
   const double width = Lz / bins;
-  // eta from one velocity profile: the two halves' parabola fits, averaged with weights 1/err^2.
   auto eta_of = [&](const std::vector<double>& u, const std::vector<double>& err,
                     double* worst_chi2) {
-    double inv_var = 0, weighted = 0;
-    for (int half = 0; half < 2; ++half) {
-      std::vector<double> z, uu, ee;
-      for (int b = half * bins / 2; b < (half + 1) * bins / 2; ++b) {
-        z.push_back((b + 0.5) * width);
-        uu.push_back(u[static_cast<size_t>(b)]);
-        ee.push_back(std::max(err[static_cast<size_t>(b)], 1e-12));
-      }
-      double zc = 0;
-      for (double v : z) zc += v;
-      const ParabolaFit f = fit_parabola(z, uu, ee, zc / static_cast<double>(z.size()));
-      const double sign = half == 0 ? 1.0 : -1.0;
-      const double eta = -sign * rho * g / (2 * f.c2);
-      const double e = std::abs(eta) * f.c2_error / std::abs(f.c2);
-      inv_var += 1 / (e * e);
-      weighted += eta / (e * e);
-      if (worst_chi2) *worst_chi2 = std::max(*worst_chi2, f.chi2_per_dof);
-    }
-    return weighted / inv_var;
+    return reverse_poiseuille_eta(u, err, width, rho, g, worst_chi2);
   };
   const auto u = profile.velocity(0);
   const auto T = profile.temperature();

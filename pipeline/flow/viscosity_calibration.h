@@ -29,6 +29,12 @@ struct ReversePoiseuille {
 // comes from the whole run's profile (the halves' fits weighted by their errors), its error from
 // the scatter of eta over `blocks` consecutive blocks, each fitted on its own (the bins of one
 // profile are correlated, so a fit that treats them as independent underestimates the error).
+// eta from one reverse-Poiseuille velocity profile u (bins of `width` along the box, +g below the
+// mid-plane, -g above): each half's parabola fit, the two averaged with weights 1/err^2. The worst
+// half's chi^2 per dof goes to *worst_chi2 when given.
+double reverse_poiseuille_eta(const std::vector<double>& u, const std::vector<double>& err,
+                              double width, double rho, double g, double* worst_chi2);
+
 ReversePoiseuille measure_reverse_poiseuille(BuiltSystem s, double g, double rho,
                                              std::uint64_t equilibrate, std::uint64_t sample,
                                              int blocks, const sim::SimulationOptions& options);
