@@ -74,13 +74,39 @@ int voxels_for(double length_rc, double h, const char* what) {
 
 }  // namespace
 
-FloodingLayout build_flooding_layout(voxel::Volume labels, const FloodingOptions& o) {
+void check_layout_inputs(const voxel::Volume& labels, int flow_axis,
+                         const std::array<double, 3>& voxel_rc, const std::string& what) {
   if (labels.dtype() != voxel::DType::kUInt8)
-    throw ConfigError("flooding: phase labels must be uint8");
-  if (o.flow_axis < 0 || o.flow_axis > 2)
-    throw ConfigError("flooding: flow axis must be x, y or z");
-  for (double h : o.voxel_rc)
-    if (!(h > 0) || !std::isfinite(h)) throw ConfigError("flooding: voxel edges must be positive");
+    throw ConfigError(what + ": phase labels must be uint8");
+  if (flow_axis < 0 || flow_axis > 2) throw ConfigError(what + ": flow axis must be x, y or z");
+  for (double h : voxel_rc)
+    if (!(h > 0) || !std::isfinite(h)) throw ConfigError(what + ": voxel edges must be positive");
+  // Every phase code must be known before anything is counted.
+  const std::uint8_t* p = labels.data<std::uint8_t>();
+  for (std::int64_t i = 0; i < labels.voxels(); ++i)
+    if (p[i] >= voxel::kPhaseCount)
+      throw ConfigError(what + ": voxel " + std::to_string(i) + " holds " + std::to_string(p[i]) +
+                        ", not a phase code");
+}
+
+void keep_spanning_pores_and_count(voxel::Volume& labels, int flow_axis, bool connected_only,
+                                   int connectivity, const std::string& what,
+                                   const std::string& faces, VoxelLayout& L) {
+  if (connected_only) {
+    L.pore_voxels_dropped = drop_unconnected_pores(labels, 2 - flow_axis, connectivity, &L.clusters,
+                                                   &L.spanning_clusters);
+    if (L.spanning_clusters == 0)
+      throw ConfigError(what + ": no pore cluster joins " + faces + " along " + "xyz"[flow_axis] +
+                        " (" + std::to_string(L.clusters) +
+                        " clusters); choose another flow axis or crop, or keep every pore");
+  }
+  const voxel::PhaseCounts counts = voxel::count_phases(labels);
+  L.pore_voxels = counts.voxels[1] + counts.voxels[4];
+  L.solid_voxels = counts.voxels[2] + counts.voxels[3];
+}
+
+FloodingLayout build_flooding_layout(voxel::Volume labels, const FloodingOptions& o) {
+  check_layout_inputs(labels, o.flow_axis, o.voxel_rc, "flooding");
   const int a = o.flow_axis;  // solver axis
   const int v = 2 - a;        // volume axis (z, y, x)
   const double h = o.voxel_rc[static_cast<std::size_t>(a)];
@@ -91,14 +117,6 @@ FloodingLayout build_flooding_layout(voxel::Volume labels, const FloodingOptions
                             voxels_for(o.inlet_rc, h, "inlet reservoir length"));
   const int n_out = std::max(layers[static_cast<std::size_t>(v)],
                              voxels_for(o.outlet_rc, h, "outlet reservoir length"));
-  {
-    // Every phase code must be known before anything is counted.
-    const std::uint8_t* p = labels.data<std::uint8_t>();
-    for (std::int64_t i = 0; i < labels.voxels(); ++i)
-      if (p[i] >= voxel::kPhaseCount)
-        throw ConfigError("flooding: voxel " + std::to_string(i) + " holds " +
-                          std::to_string(p[i]) + ", not a phase code");
-  }
 
   FloodingLayout L;
   L.flow_axis = a;
@@ -106,18 +124,8 @@ FloodingLayout build_flooding_layout(voxel::Volume labels, const FloodingOptions
   L.wall_layers_zyx = layers;
   const voxel::Shape bs = labels.shape();
   L.block_voxels = bs.voxels();
-  if (o.connected_only) {
-    L.pore_voxels_dropped =
-        drop_unconnected_pores(labels, v, o.connectivity, &L.clusters, &L.spanning_clusters);
-    if (L.spanning_clusters == 0)
-      throw ConfigError(std::string("flooding: no pore cluster joins the inlet and outlet faces "
-                                    "along ") +
-                        "xyz"[a] + " (" + std::to_string(L.clusters) +
-                        " clusters); choose another flow axis or crop, or keep every pore");
-  }
-  const voxel::PhaseCounts counts = voxel::count_phases(labels);
-  L.pore_voxels = counts.voxels[1] + counts.voxels[4];
-  L.solid_voxels = counts.voxels[2] + counts.voxels[3];
+  keep_spanning_pores_and_count(labels, a, o.connected_only, o.connectivity, "flooding",
+                                "the inlet and outlet faces", L);
   const std::int64_t extent[3] = {bs.nz, bs.ny, bs.nx};  // zyx
   double cross_rc2 = 1;  // the block's cross-section normal to the flow axis
   for (int k = 0; k < 3; ++k)

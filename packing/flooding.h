@@ -78,6 +78,16 @@ struct FloodingLayout : VoxelLayout {
          back_lo = 0, back_hi = 0;
 };
 
+// What both layouts check first (`what` names the layout in the ConfigError): uint8 labels of
+// known phase codes, a flow axis x, y or z, positive finite voxel edges.
+void check_layout_inputs(const voxel::Volume& labels, int flow_axis,
+                         const std::array<double, 3>& voxel_rc, const std::string& what);
+// With connected_only, drops the pore clusters that do not join both block faces along the flow
+// axis (ConfigError, naming `faces`, when none does); then counts pore and solid voxels into L.
+void keep_spanning_pores_and_count(voxel::Volume& labels, int flow_axis, bool connected_only,
+                                   int connectivity, const std::string& what,
+                                   const std::string& faces, VoxelLayout& L);
+
 // `labels`: uint8 phase codes (voxel/segment.h) of the block, voxel edges in options.voxel_rc.
 // Taken by value (std::move it in), so it is freed as soon as it is copied into the extended
 // volume. Throws ConfigError for bad options or when no pore cluster joins the faces.

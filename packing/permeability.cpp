@@ -12,24 +12,11 @@
 namespace mesorock::packing {
 
 PermeabilityLayout build_permeability_layout(voxel::Volume labels, const PermeabilityOptions& o) {
-  if (labels.dtype() != voxel::DType::kUInt8)
-    throw ConfigError("permeability layout: phase labels must be uint8");
-  if (o.flow_axis < 0 || o.flow_axis > 2)
-    throw ConfigError("permeability layout: flow axis must be x, y or z");
-  for (double h : o.voxel_rc)
-    if (!(h > 0) || !std::isfinite(h))
-      throw ConfigError("permeability layout: voxel edges must be positive");
+  check_layout_inputs(labels, o.flow_axis, o.voxel_rc, "permeability layout");
   const int a = o.flow_axis;  // solver axis
   const int v = 2 - a;        // volume axis (z, y, x)
   const std::array<double, 3> voxel_zyx{o.voxel_rc[2], o.voxel_rc[1], o.voxel_rc[0]};
   const std::array<int, 3> layers = voxel::wall_layers(o.wall_thickness_rc, voxel_zyx);
-  {
-    const std::uint8_t* p = labels.data<std::uint8_t>();
-    for (std::int64_t i = 0; i < labels.voxels(); ++i)
-      if (p[i] >= voxel::kPhaseCount)
-        throw ConfigError("permeability layout: voxel " + std::to_string(i) + " holds " +
-                          std::to_string(p[i]) + ", not a phase code");
-  }
   const voxel::Shape bs = labels.shape();
   const std::array<std::int64_t, 3> block_zyx{bs.nz, bs.ny, bs.nx};
   std::array<std::int64_t, 3> box_zyx = block_zyx;
@@ -50,18 +37,8 @@ PermeabilityLayout build_permeability_layout(voxel::Volume labels, const Permeab
   L.wall_layers_zyx = layers;
   L.mirrored = o.mirror;
   L.block_voxels = bs.voxels();
-  if (o.connected_only) {
-    L.pore_voxels_dropped =
-        drop_unconnected_pores(labels, v, o.connectivity, &L.clusters, &L.spanning_clusters);
-    if (L.spanning_clusters == 0)
-      throw ConfigError(std::string("permeability layout: no pore cluster joins the block's "
-                                    "faces along ") +
-                        "xyz"[a] + " (" + std::to_string(L.clusters) +
-                        " clusters); choose another flow axis or crop, or keep every pore");
-  }
-  const voxel::PhaseCounts counts = voxel::count_phases(labels);
-  L.pore_voxels = counts.voxels[1] + counts.voxels[4];
-  L.solid_voxels = counts.voxels[2] + counts.voxels[3];
+  keep_spanning_pores_and_count(labels, a, o.connected_only, o.connectivity, "permeability layout",
+                                "the block's faces", L);
 
   // The box padded on every side by the wall layers with its periodic images: a box voxel c
   // along axis k comes from block voxel c (or, mirrored, 2n - 1 - c for c >= n), and a padded
