@@ -46,23 +46,52 @@ double warren_pressure(double rho, double A, double B, double rd) {
   return rho + alpha * A * rho * rho + 2 * alpha * B * rd4 * (rho * rho * rho - c * rho * rho + d);
 }
 
-std::string flooding_scene_toml(const packing::FloodingLayout& L, const FloodingSceneParams& p) {
-  std::ostringstream s;
+// The head of both scenes: comment lines, name, seed, box with one boundary kind on every face,
+// the mDPD model with the thermostat.
+template <class Params>
+void write_scene_head(std::ostream& s, const Params& p, const sim::BoxSpec& box,
+                      const std::string& boundary) {
   std::istringstream comment(p.comment);
   for (std::string line; std::getline(comment, line);) s << "# " << line << "\n";
-  const char* axis = L.flow_axis == 0 ? "x" : L.flow_axis == 1 ? "y" : "z";
+  const std::string b = quoted(boundary);
   s << "name = " << quoted(p.name) << "\n"
     << "seed = " << p.seed << "\n\n"
     << "[box]\n"
-    << "lo = " << vec(L.box.lo) << "\n"
-    << "hi = " << vec(L.box.hi) << "\n"
-    << "boundary = [\"reflective\", \"reflective\", \"reflective\"]\n\n"
+    << "lo = " << vec(box.lo) << "\n"
+    << "hi = " << vec(box.hi) << "\n"
+    << "boundary = [" << b << ", " << b << ", " << b << "]\n\n"
     << "[model]\n"
     << "conservative = \"mdpd\"\n"
     << "density_kernel = " << quoted(p.density_kernel) << "\n"
     << "rd = " << num(p.rd) << "\n"
     << "thermostat = true\n"
     << "kBT = " << num(p.kBT) << "\n\n";
+}
+
+// Every unordered type pair once with A from a_of(t, u), and the wall model over `walls`.
+template <class Params, class AOf>
+void write_pairs_and_walls(std::ostream& s, const Params& p, AOf a_of,
+                           const std::vector<std::string>& walls) {
+  for (std::size_t i = 0; i < p.type_names.size(); ++i)
+    for (std::size_t j = i; j < p.type_names.size(); ++j) {
+      const std::string& t = p.type_names[i];
+      const std::string& u = p.type_names[j];
+      s << "[[pairs]]\ntypes = [" << quoted(t) << ", " << quoted(u) << "]\n"
+        << "A = " << num(a_of(t, u)) << "\nB = " << num(p.B) << "\ngamma = " << num(p.gamma)
+        << "\n\n";
+    }
+  if (!walls.empty()) {
+    s << "[walls]  # the boundary model of Li et al. 2018 (docs/walls.md)\n"
+      << "model = \"li2018\"\n"
+      << "types = " << list(walls) << "\n"
+      << "wall_density = " << num(p.wall_density) << "  # the packed walls' particle density\n\n";
+  }
+}
+
+std::string flooding_scene_toml(const packing::FloodingLayout& L, const FloodingSceneParams& p) {
+  std::ostringstream s;
+  write_scene_head(s, p, L.box, "reflective");
+  const char* axis = L.flow_axis == 0 ? "x" : L.flow_axis == 1 ? "y" : "z";
   std::vector<std::string> walls;
   for (const std::string& t : p.type_names) {
     s << "[[types]]\nname = " << quoted(t) << "\n";
@@ -83,20 +112,7 @@ std::string flooding_scene_toml(const packing::FloodingLayout& L, const Flooding
     }
     return p.a_wall;
   };
-  for (std::size_t i = 0; i < p.type_names.size(); ++i)
-    for (std::size_t j = i; j < p.type_names.size(); ++j) {
-      const std::string& t = p.type_names[i];
-      const std::string& u = p.type_names[j];
-      s << "[[pairs]]\ntypes = [" << quoted(t) << ", " << quoted(u) << "]\n"
-        << "A = " << num(a_of(t, u)) << "\nB = " << num(p.B) << "\ngamma = " << num(p.gamma)
-        << "\n\n";
-    }
-  if (!walls.empty()) {
-    s << "[walls]  # the boundary model of Li et al. 2018 (docs/walls.md)\n"
-      << "model = \"li2018\"\n"
-      << "types = " << list(walls) << "\n"
-      << "wall_density = " << num(p.wall_density) << "  # the packed walls' particle density\n\n";
-  }
+  write_pairs_and_walls(s, p, a_of, walls);
   const std::uint64_t flood_from = p.relax_steps + p.settle_steps;
   s << "# The block's inlet face: working fluid stays before it and source fluid after it until\n"
     << "# flooding starts at step " << flood_from << ".\n"
@@ -142,21 +158,8 @@ std::string flooding_scene_toml(const packing::FloodingLayout& L, const Flooding
 std::string permeability_scene_toml(const packing::PermeabilityLayout& L,
                                     const PermeabilitySceneParams& p) {
   std::ostringstream s;
-  std::istringstream comment(p.comment);
-  for (std::string line; std::getline(comment, line);) s << "# " << line << "\n";
+  write_scene_head(s, p, L.box, "periodic");
   const auto a = static_cast<std::size_t>(L.flow_axis);
-  s << "name = " << quoted(p.name) << "\n"
-    << "seed = " << p.seed << "\n\n"
-    << "[box]\n"
-    << "lo = " << vec(L.box.lo) << "\n"
-    << "hi = " << vec(L.box.hi) << "\n"
-    << "boundary = [\"periodic\", \"periodic\", \"periodic\"]\n\n"
-    << "[model]\n"
-    << "conservative = \"mdpd\"\n"
-    << "density_kernel = " << quoted(p.density_kernel) << "\n"
-    << "rd = " << num(p.rd) << "\n"
-    << "thermostat = true\n"
-    << "kBT = " << num(p.kBT) << "\n\n";
   std::vector<std::string> walls;
   for (const std::string& t : p.type_names) {
     s << "[[types]]\nname = " << quoted(t) << "\n";
@@ -176,20 +179,7 @@ std::string permeability_scene_toml(const packing::PermeabilityLayout& L,
     const std::string& wall = t == p.fluid_type ? u : t;
     return wall == "organic_wall" ? p.a_organic : p.a_inorganic;
   };
-  for (std::size_t i = 0; i < p.type_names.size(); ++i)
-    for (std::size_t j = i; j < p.type_names.size(); ++j) {
-      const std::string& t = p.type_names[i];
-      const std::string& u = p.type_names[j];
-      s << "[[pairs]]\ntypes = [" << quoted(t) << ", " << quoted(u) << "]\n"
-        << "A = " << num(a_of(t, u)) << "\nB = " << num(p.B) << "\ngamma = " << num(p.gamma)
-        << "\n\n";
-    }
-  if (!walls.empty()) {
-    s << "[walls]  # the boundary model of Li et al. 2018 (docs/walls.md)\n"
-      << "model = \"li2018\"\n"
-      << "types = " << list(walls) << "\n"
-      << "wall_density = " << num(p.wall_density) << "  # the packed walls' particle density\n\n";
-  }
+  write_pairs_and_walls(s, p, a_of, walls);
   s << "[[init]]\nkind = \"file\"\nfile = " << quoted(p.particle_file) << "\n\n";
   s << "[[run]]\nname = \"relax\"\nsteps = " << p.relax_steps << "\ndt = " << num(p.relax_dt)
     << "\n\n"
