@@ -102,11 +102,15 @@ bool read_double_attribute(hid_t object, const char* name, std::vector<double>* 
   return H5Aread(attr.get(), H5T_NATIVE_DOUBLE, values->data()) >= 0;
 }
 
+// Reads a string attribute holding exactly one string (scalar or one element); anything else is
+// not a usable value: an array of strings would not fit the one-string buffers read into below.
 bool read_string_attribute(hid_t object, const char* name, std::string* value) {
   if (H5Aexists(object, name) <= 0) return false;
   Handle attr(H5Aopen(object, name, H5P_DEFAULT), H5Aclose);
   Handle type(H5Aget_type(attr.get()), H5Tclose);
   if (H5Tget_class(type.get()) != H5T_STRING) return false;
+  Handle space(H5Aget_space(attr.get()), H5Sclose);
+  if (H5Sget_simple_extent_npoints(space.get()) != 1) return false;
   if (H5Tis_variable_str(type.get()) > 0) {
     Handle memory(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(memory.get(), H5T_VARIABLE);
@@ -221,7 +225,9 @@ Volume read_hdf5(const fs::path& path, const std::string& dataset, const ReadLim
     spacing.unit = read_string_attribute(ds.get(), "unit", &unit) ? normalize_unit(unit) : "";
     if (spacing.unit.empty()) {
       spacing.unit = "um";
-      if (report) report->warnings.push_back(what + ": 'spacing' has no 'unit'; assuming um");
+      if (report)
+        report->warnings.push_back(what +
+                                   ": 'spacing' has no 'unit' holding one string; assuming um");
     }
     spacing_source = "metadata";
   } else if (read_double_attribute(ds.get(), "element_size_um", &values) &&

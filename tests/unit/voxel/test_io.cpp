@@ -1,6 +1,8 @@
 // Loaders and writers: TIFF folders and files, raw, MetaImage, NumPy, HDF5, format detection.
 #include <gtest/gtest.h>
 
+#include <hdf5.h>
+
 #include <algorithm>
 
 #include "mesorock/errors.h"
@@ -441,6 +443,42 @@ TEST(Hdf5, RoundTripWithSpacingAndSelection) {
   }
   expect_error<ConfigError>([&] { read_hdf5(tmp / "v.h5", "/nothing"); },
                             {"v.h5", "/nothing", "/scan/volume"});
+}
+
+// A 'unit' attribute holding several strings (found by scripts/fuzz.sh: it overflowed the
+// one-string buffer it was read into) is not a unit: the loader warns and assumes um.
+TEST(Hdf5, UnitAttributeWithSeveralStringsIsIgnoredWithAWarning) {
+  TempDir tmp;
+  for (const bool variable : {true, false}) {
+    Volume v = random_volume({3, 4, 5}, DType::kUInt8, 5);
+    v.set_spacing({5, 2.5, 2.5, "nm"});
+    write_hdf5(v, tmp / "v.h5", "/v");
+    {
+      hid_t file = H5Fopen((tmp / "v.h5").c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+      ASSERT_GE(file, 0);
+      hid_t ds = H5Dopen2(file, "/v", H5P_DEFAULT);
+      ASSERT_GE(H5Adelete(ds, "unit"), 0);
+      const hsize_t n = 3;
+      hid_t space = H5Screate_simple(1, &n, nullptr);
+      hid_t type = H5Tcopy(H5T_C_S1);
+      H5Tset_size(type, variable ? H5T_VARIABLE : 4);
+      hid_t attr = H5Acreate2(ds, "unit", type, space, H5P_DEFAULT, H5P_DEFAULT);
+      const char* texts[3] = {"nm", "um", "mm"};
+      const char fixed[12] = {'n', 'm', 0, 0, 'u', 'm', 0, 0, 'm', 'm', 0, 0};
+      ASSERT_GE(H5Awrite(attr, type, variable ? static_cast<const void*>(texts) : fixed), 0);
+      H5Aclose(attr);
+      H5Tclose(type);
+      H5Sclose(space);
+      H5Dclose(ds);
+      H5Fclose(file);
+    }
+    ReadReport report;
+    const Volume back = read_hdf5(tmp / "v.h5", "/v", {}, &report);
+    EXPECT_TRUE(same_voxels(v, back));
+    EXPECT_EQ(back.spacing().str(), "5 x 2.5 x 2.5 um") << (variable ? "variable" : "fixed");
+    ASSERT_EQ(report.warnings.size(), 1u);
+    EXPECT_NE(report.warnings[0].find("one string"), std::string::npos) << report.warnings[0];
+  }
 }
 
 TEST(Hdf5, TruncatedAndForeignFilesAreRefused) {
