@@ -1,5 +1,6 @@
 #include "sim/domain/communicator.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 
@@ -77,21 +78,39 @@ class MpiCommunicator final : public Communicator {
           "alltoallv");
   }
   void allgatherv(const std::vector<char>& mine, std::vector<char>& all,
-                  std::vector<int>& per_rank) override {
-    int bytes = static_cast<int>(mine.size());
-    per_rank.assign(static_cast<size_t>(size_), 0);
-    check(MPI_Allgather(&bytes, 1, MPI_INT, per_rank.data(), 1, MPI_INT, MPI_COMM_WORLD),
+                  std::vector<std::size_t>& per_rank) override {
+    const std::uint64_t bytes = mine.size();
+    std::vector<std::uint64_t> sizes(static_cast<size_t>(size_), 0);
+    check(MPI_Allgather(&bytes, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, MPI_COMM_WORLD),
           "allgather");
-    std::vector<int> displ(per_rank.size());
-    int total = 0;
-    for (int r = 0; r < size_; ++r) {
-      displ[static_cast<size_t>(r)] = total;
-      total += per_rank[static_cast<size_t>(r)];
+    per_rank.assign(sizes.begin(), sizes.end());
+    std::vector<std::size_t> start(sizes.size() + 1, 0);  // of each rank's bytes in `all`
+    for (size_t r = 0; r < sizes.size(); ++r) start[r + 1] = start[r] + sizes[r];
+    all.resize(start.back());
+    // Rounds of at most `round` bytes from each rank, so every count and displacement of one
+    // round fits an int; one round below 2 GiB in all.
+    const std::size_t round = std::max<std::size_t>(1, gather_round_bytes_ / sizes.size());
+    const std::uint64_t largest = *std::max_element(sizes.begin(), sizes.end());
+    std::vector<char> in;
+    std::vector<int> counts(sizes.size()), displ(sizes.size());
+    for (std::uint64_t done = 0; done < largest; done += round) {
+      int offset = 0;
+      for (size_t r = 0; r < sizes.size(); ++r) {
+        const std::uint64_t left = sizes[r] > done ? sizes[r] - done : 0;
+        counts[r] = static_cast<int>(std::min<std::uint64_t>(left, round));
+        displ[r] = offset;
+        offset += counts[r];
+      }
+      in.resize(static_cast<size_t>(offset));
+      const int my_count = counts[static_cast<size_t>(rank_)];
+      check(MPI_Allgatherv(mine.data() + std::min<std::uint64_t>(done, bytes), my_count, MPI_BYTE,
+                           in.data(), counts.data(), displ.data(), MPI_BYTE, MPI_COMM_WORLD),
+            "allgatherv");
+      for (size_t r = 0; r < sizes.size(); ++r)
+        if (counts[r] > 0)
+          std::memcpy(all.data() + start[r] + done, in.data() + displ[r],
+                      static_cast<size_t>(counts[r]));
     }
-    all.resize(static_cast<size_t>(total));
-    check(MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, all.data(), per_rank.data(), displ.data(),
-                         MPI_BYTE, MPI_COMM_WORLD),
-          "allgatherv");
   }
   void barrier() override { check(MPI_Barrier(MPI_COMM_WORLD), "barrier"); }
 
@@ -114,9 +133,9 @@ class SelfCommunicator final : public Communicator {
     recv_bytes.assign(1, static_cast<int>(recv.size()));
   }
   void allgatherv(const std::vector<char>& mine, std::vector<char>& all,
-                  std::vector<int>& bytes_per_rank) override {
+                  std::vector<std::size_t>& bytes_per_rank) override {
     all = mine;
-    bytes_per_rank.assign(1, static_cast<int>(mine.size()));
+    bytes_per_rank.assign(1, mine.size());
   }
   void barrier() override {}
 };

@@ -24,10 +24,14 @@ class Communicator {
   // order, into recv; recv_bytes[r] says how much came from r.
   virtual void alltoallv(const std::vector<std::vector<char>>& send, std::vector<char>& recv,
                          std::vector<int>& recv_bytes) = 0;
-  // Every rank's bytes, concatenated in rank order, on every rank.
+  // Every rank's bytes, concatenated in rank order, on every rank. Any size: MPI counts are int,
+  // so gathers of more than 2 GiB in all (a checkpoint of 10^8 particles) go in rounds.
   virtual void allgatherv(const std::vector<char>& mine, std::vector<char>& all,
-                          std::vector<int>& bytes_per_rank) = 0;
+                          std::vector<std::size_t>& bytes_per_rank) = 0;
   virtual void barrier() = 0;
+  // The most bytes one round of allgatherv moves in all (2^30; tests set it small to run the
+  // rounds on small data).
+  void set_gather_round_bytes(std::size_t bytes) { gather_round_bytes_ = bytes; }
 
   // Typed helpers over trivially copyable records.
   template <class T>
@@ -51,12 +55,15 @@ class Communicator {
   std::vector<T> allgather_records(const std::vector<T>& mine) {
     const char* p = reinterpret_cast<const char*>(mine.data());
     std::vector<char> bytes(p, p + mine.size() * sizeof(T)), all;
-    std::vector<int> per_rank;
+    std::vector<std::size_t> per_rank;
     allgatherv(bytes, all, per_rank);
     std::vector<T> out(all.size() / sizeof(T));
     if (!all.empty()) std::memcpy(out.data(), all.data(), all.size());
     return out;
   }
+
+ protected:
+  std::size_t gather_round_bytes_ = std::size_t{1} << 30;
 };
 
 // Starts MPI when this process was launched by mpirun (Open MPI's or PMI's environment is set)
