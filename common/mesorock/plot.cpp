@@ -240,8 +240,8 @@ void draw_error_bar(Image& img, int x, int y_lo, int y_hi, std::uint32_t colour)
 
 Image render_plot(const Plot& plot) {
   Image img(plot.width, plot.height);
-  const int left = 100, right = 30, top = 50, bottom = 75;
-  const int x0 = left, x1 = plot.width - right, y0 = plot.height - bottom, y1 = top;
+  const int right = 30, top = 50, bottom = 75;
+  const int x1 = plot.width - right, y0 = plot.height - bottom, y1 = top;
   // Every series as one list: the main one first.
   Series main;
   main.label = plot.label;
@@ -278,6 +278,12 @@ Image render_plot(const Plot& plot) {
   if (!(xmax > xmin)) xmax = xmin + 1;
   if (!(ymax > ymin)) ymax = ymin + (ymin == 0 ? 1 : std::fabs(ymin) * 0.1);
   ymax += (ymax - ymin) * 0.05;
+  // The left margin holds the vertical y label (8 rows of glyph from x = 12), a gap and the
+  // widest y tick label: long ticks such as 0.0001234 used to run into the label.
+  int widest_tick = 0;
+  for (double t : nice_ticks(ymin, ymax))
+    widest_tick = std::max(widest_tick, text_width(tick_label(t)));
+  const int x0 = std::max(100, 12 + 8 * kTextScale + 12 + widest_tick + 10);
   auto px = [&](double x) {
     return x0 + static_cast<int>(std::lround((x - xmin) / (xmax - xmin) * (x1 - x0)));
   };

@@ -82,6 +82,21 @@ TEST(Roi, ResampleNearestKeepsLabelsAndLinearInterpolates) {
   EXPECT_THROW(parse_interpolation("cubic"), ConfigError);
 }
 
+// Long y tick labels (a Darcy velocity of 1e-4: "0.00015") widen the left margin: between the
+// vertical y label (columns 12-27) and the tick labels a band of columns stays blank.
+TEST(Plot, LongTickLabelsDoNotRunIntoTheAxisLabel) {
+  Plot plot;
+  plot.y_label = "q  (rc / tau)";
+  plot.x = {0.01, 0.02, 0.03};
+  plot.y = {1.1e-4, 1.7e-4, 2.3e-4};
+  const Image img = render_plot(plot);
+  for (int x = 29; x < 38; ++x)
+    for (int y = 0; y < img.height; ++y)
+      for (int c = 0; c < 3; ++c)
+        ASSERT_EQ(img.rgb[(static_cast<size_t>(y) * img.width + x) * 3 + c], 255)
+            << "ink at column " << x << ", row " << y;
+}
+
 // Decodes our own PNGs with zlib: signature, chunk CRCs, IHDR, and the filtered rows.
 TEST(Plot, PngIsValidAndDrawsTheData) {
   Plot plot;
