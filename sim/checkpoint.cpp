@@ -30,6 +30,53 @@ ParticleSet SimulationState::particles() const {
   return p;
 }
 
+SimulationState SimulationState::select(const std::vector<std::size_t>& rows) const {
+  SimulationState out;
+  out.precision = precision;
+  out.step = step;
+  out.dt = dt;
+  out.slabs = slabs;
+  out.wall_corrections = wall_corrections;
+  auto pick = [&](const auto& in, auto& to) {
+    to.clear();
+    if (in.empty()) return;  // an optional array stays absent
+    to.reserve(rows.size());
+    for (std::size_t r : rows) to.push_back(in.at(r));
+  };
+  const std::vector<double>* in[14] = {&x,   &y,   &z,  &vx, &vy, &vz,  &vex,
+                                       &vey, &vez, &fx, &fy, &fz, &rho, &bvf};
+  std::vector<double>* to[14] = {&out.x,   &out.y,   &out.z,  &out.vx, &out.vy, &out.vz,  &out.vex,
+                                 &out.vey, &out.vez, &out.fx, &out.fy, &out.fz, &out.rho, &out.bvf};
+  for (int a = 0; a < 14; ++a) pick(*in[a], *to[a]);
+  pick(type, out.type);
+  pick(id, out.id);
+  out.origin.resize(rows.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) out.origin[k] = static_cast<std::int32_t>(k);
+  return out;
+}
+
+SimulationState SimulationState::in_original_order() const {
+  check();
+  std::vector<std::size_t> rows(size());
+  for (std::size_t k = 0; k < rows.size(); ++k) rows[static_cast<std::size_t>(origin[k])] = k;
+  return select(rows);
+}
+
+void SimulationState::check_fits(const Model& model) const {
+  if (precision != model.precision)
+    throw ConfigError(std::string("state: saved in ") + to_string(precision) +
+                      " precision, the model runs in " + to_string(model.precision));
+  if (size() > 0 && vex.empty() == model.thermostat)
+    throw ConfigError("state: the thermostat setting differs from the saved run's");
+  if (size() > 0 && bvf.empty() == model.wall_model.enabled)
+    throw ConfigError("state: the wall model setting differs from the saved run's");
+  if (slabs.size() != model.rigid_slabs.size())
+    throw ConfigError("state: the number of rigid slabs differs from the saved run's");
+  for (std::size_t k = 0; k < slabs.size(); ++k)
+    if (slabs[k].type != model.rigid_slabs[k].type || slabs[k].axis != model.rigid_slabs[k].axis)
+      throw ConfigError("state: rigid slab " + std::to_string(k + 1) + " differs from the model's");
+}
+
 void SimulationState::check() const {
   const size_t n = size();
   for (const auto* a : {&y, &z, &vx, &vy, &vz, &fx, &fy, &fz, &rho})

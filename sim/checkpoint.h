@@ -52,6 +52,15 @@ struct SimulationState {
   // ConfigError naming the problem when arrays disagree in length or origin is not a
   // permutation.
   void check() const;
+  // The stored rows `rows` (indices into this storage order) as a state of their own, in that
+  // order, whose original order is that order too (origin = 0, 1, ...). Step, dt, slabs and wall
+  // corrections are kept.
+  SimulationState select(const std::vector<std::size_t>& rows) const;
+  // This state re-stored in the original order (origin = 0, 1, ...): the order of particles().
+  SimulationState in_original_order() const;
+  // ConfigError when this state was not saved from a run of `model` (precision, thermostat, wall
+  // model, rigid slabs): checked on the whole state, so every rank of a decomposed resume agrees.
+  void check_fits(const Model& model) const;
 };
 
 struct CheckpointFile {

@@ -19,7 +19,9 @@ namespace {
 template <class Real>
 class CellSorter {
  public:
-  void sort(HostState<Real>& s) {
+  // carry_forces: forces, densities and phi move with their particles too (a restored state; a
+  // step's sort comes before its force pass, which writes them anew).
+  void sort(HostState<Real>& s, bool carry_forces = false) {
     const int ncells = s.grid.count();
     const int n = s.size();
     s.cell_start.assign(static_cast<size_t>(ncells) + 1, 0);
@@ -41,6 +43,8 @@ class CellSorter {
     permute(s.type, scratch_int_);
     permute(s.origin, scratch_int_);
     permute(s.id, scratch_id_);
+    if (carry_forces)  // phi is empty without the wall model: a no-op then
+      for (auto* a : {&s.fx, &s.fy, &s.fz, &s.rho, &s.bvf}) permute(*a, scratch_real_);
   }
 
  private:
@@ -71,11 +75,15 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     set_slab_forces(false);
   }
 
-  void restore(HostState<Real>& host, std::uint64_t wall_corrections) override {
+  void restore(HostState<Real>& host, std::uint64_t wall_corrections,
+               StepHooks<Real>* hooks) override {
     s_ = &host;
+    hooks_ = hooks;
     corrected_ = wall_corrections;
     ThreadScope scope(threads_);
-    sort();  // the saved storage is already sorted (stable sort: no particle moves)
+    // A single-rank checkpoint is already sorted (stable sort: no particle moves); a gathered one
+    // (decomposed run) is in the original order, so the last forces move with their particles.
+    sort(true);
   }
 
   void advance(std::uint64_t steps) override {
@@ -255,8 +263,8 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     return moved != 0;
   }
 
-  void sort() {
-    sorter_.sort(*s_);
+  void sort(bool carry_forces = false) {
+    sorter_.sort(*s_, carry_forces);
     if (s_->reorder_every > 1) {
       x0_ = s_->x;
       y0_ = s_->y;

@@ -603,9 +603,7 @@ std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec&
   state.check();
   validate_inputs(model, box, state.particles(), state.dt, state.step);
   if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
-    throw ConfigError(
-        "resuming a run on several ranks is not supported yet: resume it on one "
-        "rank (the checkpoint holds every particle)");
+    return resume_distributed_simulation(model, box, state, options);
   if (options.backend == BackendKind::CUDA) {
     const std::string why = cuda_unavailable_reason();
     if (!why.empty()) throw DeviceError(why);

@@ -143,6 +143,8 @@ class Simulation {
   virtual std::string decomposition_report() const { return ""; }
   // Everything needed to continue this run bit for bit (sim/checkpoint.h): the particles in the
   // engine's cell-sorted storage order, the last forces, step, dt, slab bodies, wall corrections.
+  // A decomposed run gathers every rank's particles in the original order (collective): that
+  // continues the same physics on any number of ranks, though not bit for bit.
   virtual SimulationState state() = 0;
 };
 
@@ -154,7 +156,9 @@ std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& b
 
 // Continues a run from Simulation::state() of the same model and box: the next run() computes
 // what the interrupted simulation would have computed (bit for bit on the same backend; on the
-// CPU whatever the thread count). Throws ConfigError when the state does not fit the model.
+// CPU whatever the thread count). Throws ConfigError when the state does not fit the model. With
+// a communicator of several ranks it resumes decomposed, from a state saved on any number of
+// ranks (the same physics; the order of force sums differs, so not bit for bit).
 std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec& box,
                                               const SimulationState& state,
                                               const SimulationOptions& options = {});

@@ -129,7 +129,10 @@ class Engine {
   virtual void initialize(HostState<Real>& host, StepHooks<Real>* hooks = nullptr) = 0;
   // Takes a saved host state (cell-sorted, with the forces, densities and slab forces of step
   // `host.step` already in it) and continues from it: builds the cell list, computes nothing.
-  virtual void restore(HostState<Real>& host, std::uint64_t wall_corrections) = 0;
+  // A decomposed run's saved state holds this rank's own particles and no ghosts (the first
+  // step's exchange brings them); `hooks` as for initialize.
+  virtual void restore(HostState<Real>& host, std::uint64_t wall_corrections,
+                       StepHooks<Real>* hooks = nullptr) = 0;
   virtual void advance(std::uint64_t steps) = 0;
   virtual void set_dt(Real dt) = 0;
   // Brings host positions, velocities, forces and densities up to date.

@@ -64,11 +64,11 @@ const std::string& RunRecord::text(const std::string& name) const {
   return it->second;
 }
 
-void write_run_checkpoint(const std::filesystem::path& path, sim::Simulation& sim,
+void write_run_checkpoint(const std::filesystem::path& path, sim::SimulationState state,
                           const Scene& scene, const std::string& parameters_json,
                           const RunRecord& record) {
   sim::CheckpointFile c;
-  c.state = sim.state();
+  c.state = std::move(state);
   c.created_by = "rockflow run";
   c.scene_path = scene.path.string();
   c.scene_text = scene.source_text;

@@ -36,9 +36,10 @@ inline std::filesystem::path checkpoint_path(const std::filesystem::path& out_di
   return out_dir / "checkpoint.h5";
 }
 
-// Writes sim's state and the record to `path` atomically; provenance records the scene (path and
-// text), the version and `parameters_json`.
-void write_run_checkpoint(const std::filesystem::path& path, sim::Simulation& sim,
+// Writes a state of the run (sim::Simulation::state(), collective on several ranks: call it on
+// every rank, write on rank 0) and the record to `path` atomically; provenance records the scene
+// (path and text), the version and `parameters_json`.
+void write_run_checkpoint(const std::filesystem::path& path, sim::SimulationState state,
                           const Scene& scene, const std::string& parameters_json,
                           const RunRecord& record);
 

@@ -205,10 +205,6 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
   }
   const std::uint64_t checkpoint_every = o.checkpoint_every.value_or(scene.output.checkpoint_every);
-  if (checkpoint_every > 0 && sim->ranks() > 1)
-    throw ConfigError(scene.path.string() +
-                      ": checkpoints of a run on several ranks are not supported yet: set "
-                      "--checkpoint-every 0 or run on one rank");
 
   // A decomposed run (mpirun): every rank takes part in every step and every observable (they
   // are collective); rank 0 alone writes files and progress.
@@ -452,7 +448,11 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       rec.numbers["injection.injected"] = injected;
       rec.numbers["injection.missed"] = missed;
     }
-    write_run_checkpoint(checkpoint_file, *sim, scene, parameters.dump(), rec);
+    // Several ranks: every rank's particles are gathered (collective); rank 0 writes the file,
+    // which resumes on any number of ranks.
+    sim::SimulationState state = sim->state();
+    if (root)
+      write_run_checkpoint(checkpoint_file, std::move(state), scene, parameters.dump(), rec);
   };
   // Steps of a stage begin at this step; its time at this time (resume skips what was done).
   const std::uint64_t start_step = sim->step();
@@ -534,7 +534,13 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           if (progress && isatty(STDERR_FILENO)) std::cerr << "\n";
           const std::string what = std::string(signal == SIGINT ? "Ctrl-C" : "SIGTERM") +
                                    " at step " + std::to_string(now);
-          if (sim->ranks() > 1) throw Interrupted(what + " (no checkpoint: several ranks)");
+          if (sim->ranks() > 1) {
+            const bool kept = fs::exists(checkpoint_file);  // a periodic one (or the resumed one)
+            throw Interrupted(what + " (several ranks: no checkpoint of this step" +
+                              (kept ? "; the last periodic one is in " + checkpoint_file.string() +
+                                          ", continue with --resume)"
+                                    : ")"));
+          }
           throw Interrupted(what + "; checkpoint written to " + checkpoint_file.string() +
                             "; continue with: rockflow run " + scene.path.string() + " --out " +
                             o.out_dir.string() + " --resume");

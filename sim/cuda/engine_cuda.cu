@@ -531,10 +531,14 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     check(cudaDeviceSynchronize(), "initial forces");
   }
 
-  void restore(HostState<Real>& host, std::uint64_t wall_corrections) override {
+  void restore(HostState<Real>& host, std::uint64_t wall_corrections,
+               StepHooks<Real>* hooks) override {
+    hooks_ = hooks;
     upload(host);
     corrected_ = wall_corrections;
-    sort();  // the saved storage is already sorted (stable sort: no particle moves)
+    // A single-rank checkpoint is already sorted (stable sort: no particle moves); a gathered one
+    // (decomposed run) is in the original order, so the last forces move with their particles.
+    sort(true);
     check(cudaDeviceSynchronize(), "restore");
   }
 
@@ -847,8 +851,8 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     return moved[0] != 0;
   }
 
-  void sort() {
-    sort_by_cell();
+  void sort(bool carry_forces = false) {
+    sort_by_cell(carry_forces);
     if (host_->reorder_every > 1) {
       for (auto [from, to] : {std::pair{&x_, &x0_}, std::pair{&y_, &y0_}, std::pair{&z_, &z0_}}) {
         to->set_size(static_cast<size_t>(n_));
@@ -871,7 +875,9 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     }
   }
 
-  void sort_by_cell() {
+  // carry_forces: forces, densities and phi move with their particles too (a restored state; a
+  // step's sort comes before its force pass, which writes them anew).
+  void sort_by_cell(bool carry_forces = false) {
     const int g = blocks_for(n_);
     if (host_->grid.count() != ncells_) {  // a decomposed run re-balanced: a new cell grid
       ncells_ = host_->grid.count();
@@ -897,6 +903,12 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     origin_.swap(scratch_int_);
     gather_kernel<<<g, kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), n_);
     id_.swap(scratch_id_);
+    if (carry_forces)
+      for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_, &rho_, &bvf_}) {
+        if (a->size() == 0) continue;  // phi without the wall model
+        gather_kernel<<<g, kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), n_);
+        a->swap(scratch_real_);
+      }
   }
 
  public:

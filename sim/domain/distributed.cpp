@@ -15,6 +15,7 @@
 #include "sim/domain/communicator.h"
 #include "sim/domain/decomposition.h"
 #include "sim/engine_factory.h"
+#include "sim/state_snapshot.h"
 #include "sim/terms.h"
 
 namespace mesorock::sim {
@@ -28,8 +29,10 @@ constexpr double kFrozenCost = 1.0, kMobileCost = 4.5;
 template <class Real>
 class DistributedSimulation final : public Simulation, public StepHooks<Real> {
  public:
+  // resume: a saved state in the original order (SimulationState::in_original_order) whose
+  // particles are `p`; each rank takes its own particles' rows of it (else the run starts from p).
   DistributedSimulation(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
-                        const SimulationOptions& opt)
+                        const SimulationOptions& opt, const SimulationState* resume = nullptr)
       : model_(model), box_(box), dt_(dt), comm_(opt.comm), opt_(opt) {
     const DecompositionOptions& d = opt.decomposition;
     if (!(d.halo >= 1.0)) throw ConfigError("decomposition halo must be at least rc = 1");
@@ -39,6 +42,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
         throw ConfigError("a decomposed run needs unique particle ids (id " +
                           std::to_string(p.id[i]) + " repeats)");
     total_ = p.size();
+    ids_ = p.id;
     for (int t = 0; t < model.ntypes(); ++t)
       if (model.types[static_cast<size_t>(t)].frozen) frozen_mask_ |= 1u << t;
     for (const RigidSlabSpec& r : model.rigid_slabs) slab_mask_ |= 1u << r.type;
@@ -57,25 +61,39 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       return histogram(pos, weight, g, axis, bins);  // local data is global here: no reduction
     });
     ParticleSet mine;
+    std::vector<size_t> rows;
     const Region& own = decomp_.region(comm_->rank());
     for (size_t i = 0; i < p.size(); ++i) {
       const double c[3] = {pos[0][i], pos[1][i], pos[2][i]};
-      if (own.contains(c))
-        mine.add(p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.type[i], p.id[i]);
+      if (!own.contains(c)) continue;
+      mine.add(p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.type[i], p.id[i]);
+      rows.push_back(i);
     }
     init_host_state(state_, model, box, mine, dt, opt);
     for (RigidSlabBody& b : state_.slab_bodies)
       b.mass = static_cast<double>(std::count(p.type.begin(), p.type.end(), b.type));
+    if (resume) {
+      // This rank's rows, with their velocities, v~, forces, densities and phi of the saved step.
+      load_state(state_, resume->select(rows));
+    }
     state_.has_ghosts = true;
     set_local_geometry();
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
     engine_ = make_engine<Real>(model, opt);
-    engine_->initialize(state_, this);
+    if (resume) {
+      // No ghosts yet: the first step's exchange brings them, before its force pass. The run's
+      // wall-correction count goes to rank 0 alone (wall_corrections() sums over the ranks).
+      engine_->restore(state_, comm_->rank() == 0 ? resume->wall_corrections : 0, this);
+    } else {
+      engine_->initialize(state_, this);
+    }
     engine_->set_watchdog(opt.watchdog);
     host_current_ = false;
     // The first cut weighed particles by type; the initial force pass has counted neighbours, so
     // RCB cuts again on the measured cost before the first step (a flooding run on 4 ranks
-    // peaked at 1.11 in its first 1,000 steps on the type-weighted cut, 1.00-1.05 after).
+    // peaked at 1.11 in its first 1,000 steps on the type-weighted cut, 1.00-1.05 after). A
+    // resumed run counts without ghosts (particles near a cut see fewer neighbours) until its
+    // next re-balance.
     if (opt.decomposition.method == DecompositionMethod::RCB) rebalance();
   }
 
@@ -330,10 +348,40 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     comm_->sum(per_rank.data(), static_cast<int>(per_rank.size()));
     return per_rank;
   }
+  // Every rank's own particles gathered in the original order (origin = 0, 1, ...), on every
+  // rank: a checkpoint of it resumes on any number of ranks, one included. It continues the same
+  // physics, not bit for bit: storage order (so the order of force sums) and the regions of the
+  // re-balances are not kept.
   SimulationState state() override {
-    throw ConfigError(
-        "checkpoints of a run on several ranks are not supported yet: run it on "
-        "one rank to checkpoint it");
+    sync();
+    SimulationState out;
+    out.precision = std::is_same_v<Real, float> ? Precision::Single : Precision::Double;
+    out.step = engine_->step();
+    out.dt = dt_;
+    // Decided by the model, not by this rank's arrays (a rank may own no particle): every rank
+    // makes the same gathers.
+    auto field = [&](const std::vector<Real>& a, bool present) {
+      if (!present) return std::vector<double>{};
+      return gather_field([&](int i) { return double(a[static_cast<size_t>(i)]); });
+    };
+    const bool ve = model_.thermostat, walls = model_.wall_model.enabled;
+    const std::vector<Real>* in[14] = {
+        &state_.x,   &state_.y,   &state_.z,  &state_.vx, &state_.vy, &state_.vz,  &state_.vex,
+        &state_.vey, &state_.vez, &state_.fx, &state_.fy, &state_.fz, &state_.rho, &state_.bvf};
+    std::vector<double>* to[14] = {&out.x,  &out.y,   &out.z,   &out.vx,  &out.vy,
+                                   &out.vz, &out.vex, &out.vey, &out.vez, &out.fx,
+                                   &out.fy, &out.fz,  &out.rho, &out.bvf};
+    for (int a = 0; a < 14; ++a)
+      *to[a] = field(*in[a], (a < 6 || a > 8 || ve) && (a != 13 || walls));
+    const std::vector<double> types =
+        gather_field([&](int i) { return double(state_.type[static_cast<size_t>(i)]); });
+    out.type.assign(types.begin(), types.end());
+    out.id = ids_;
+    out.origin.resize(total_);
+    for (size_t k = 0; k < total_; ++k) out.origin[k] = static_cast<std::int32_t>(k);
+    out.slabs = state_.slab_bodies;  // the same on every rank (their forces are summed)
+    out.wall_corrections = wall_corrections();
+    return out;
   }
   std::string decomposition_report() const override {
     return std::string(to_string(opt_.decomposition.method)) + " over " +
@@ -555,6 +603,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   bool host_current_ = false;
   bool geometry_pending_ = false;  // new regions chosen; the engine takes them before the next step
   std::unordered_map<std::int64_t, std::int32_t> id_index_;
+  std::vector<std::int64_t> ids_;  // the ids in the original order
   size_t total_ = 0;
   std::uint32_t frozen_mask_ = 0, slab_mask_ = 0;
   LocalRegion<Real> region_;
@@ -572,6 +621,20 @@ std::unique_ptr<Simulation> make_distributed_simulation(const Model& model, cons
   if (model.precision == Precision::Single)
     return std::make_unique<DistributedSimulation<float>>(model, box, particles, dt, options);
   return std::make_unique<DistributedSimulation<double>>(model, box, particles, dt, options);
+}
+
+std::unique_ptr<Simulation> resume_distributed_simulation(const Model& model, const BoxSpec& box,
+                                                          const SimulationState& state,
+                                                          const SimulationOptions& options) {
+  if (!options.comm) throw ConfigError("a decomposed run needs a communicator");
+  state.check_fits(model);  // on the whole state: every rank throws, or none
+  const SimulationState ordered = state.in_original_order();
+  const ParticleSet p = ordered.particles();
+  if (model.precision == Precision::Single)
+    return std::make_unique<DistributedSimulation<float>>(model, box, p, state.dt, options,
+                                                          &ordered);
+  return std::make_unique<DistributedSimulation<double>>(model, box, p, state.dt, options,
+                                                         &ordered);
 }
 
 }  // namespace mesorock::sim

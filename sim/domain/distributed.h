@@ -12,5 +12,10 @@ namespace mesorock::sim {
 std::unique_ptr<Simulation> make_distributed_simulation(const Model& model, const BoxSpec& box,
                                                         const ParticleSet& particles, double dt,
                                                         const SimulationOptions& options);
+// Continues a run from a saved state (sim/checkpoint.h) of a run on any number of ranks, one
+// included: each rank takes the saved particles in its region with their velocities and forces.
+std::unique_ptr<Simulation> resume_distributed_simulation(const Model& model, const BoxSpec& box,
+                                                          const SimulationState& state,
+                                                          const SimulationOptions& options);
 
 }  // namespace mesorock::sim

@@ -12,7 +12,9 @@
 #include <set>
 #include <string>
 
+#include "mesorock/errors.h"
 #include "mpi_world.h"
+#include "sim/checkpoint.h"
 #include "sim/init.h"
 #include "sim/simulation.h"
 
@@ -190,6 +192,96 @@ TEST(Decomposed, AveragesAgreeWithTheSingleRankRun) {
   EXPECT_LT(std::abs(p1 - p2), 4 * std::hypot(ep1, ep2) + 0.05) << p1 << " vs " << p2;
   // Warren's fit at rho = 6.5: p = 22.5 (eos-mdpd validates it).
   EXPECT_NEAR(p2, 22.5, 2.0);
+}
+
+// allgatherv in rounds (MPI counts are int: gathers above 2 GiB in all need them), run here on
+// small data with rounds of a few bytes: every rank's bytes arrive whole and in rank order, the
+// ranks sending different amounts (rank r sends 37 r + 5 bytes; one rank may send nothing).
+TEST(Communicator, AllgatherInRoundsKeepsEveryRanksBytesInOrder) {
+  MESOROCK_REQUIRE_RANKS();
+  for (const std::size_t round : {std::size_t{1} << 30, std::size_t{16}, std::size_t{3}}) {
+    g_world->set_gather_round_bytes(round);
+    const int me = g_world->rank();
+    std::vector<char> mine(static_cast<size_t>(me == 1 ? 0 : 37 * me + 5));
+    for (size_t k = 0; k < mine.size(); ++k) mine[k] = static_cast<char>(me * 7 + k);
+    std::vector<char> all;
+    std::vector<std::size_t> per_rank;
+    g_world->allgatherv(mine, all, per_rank);
+    ASSERT_EQ(per_rank.size(), static_cast<size_t>(g_world->size()));
+    std::vector<char> expected;
+    for (int r = 0; r < g_world->size(); ++r) {
+      const size_t n = static_cast<size_t>(r == 1 ? 0 : 37 * r + 5);
+      EXPECT_EQ(per_rank[static_cast<size_t>(r)], n) << "round " << round;
+      for (size_t k = 0; k < n; ++k) expected.push_back(static_cast<char>(r * 7 + k));
+    }
+    EXPECT_EQ(all, expected) << "round " << round;
+  }
+  g_world->set_gather_round_bytes(std::size_t{1} << 30);
+}
+
+// A decomposed run's state is every rank's particles gathered in the original order; written to a
+// checkpoint file and read back it resumes on these ranks or on one, and a single-rank state
+// resumes decomposed. Right after the resume the forces are the saved ones, bit for bit (they must
+// move with their particles when the storage is sorted); ten steps later the particles follow the
+// uninterrupted run to round-off growth (the order of the force sums differs).
+TEST(Decomposed, CheckpointsResumeOnAnyNumberOfRanks) {
+  MESOROCK_REQUIRE_RANKS();
+  const System s = channel(21);  // wall model (phi), thermostat (v~), body force
+  auto expect_follows = [](ms::Simulation& resumed, const ms::SimulationState& saved,
+                           const ms::ParticleSet& after, const char* what) {
+    const auto f = resumed.forces();
+    EXPECT_EQ(f[0], saved.fx) << what;
+    EXPECT_EQ(f[2], saved.fz) << what;
+    EXPECT_EQ(resumed.step(), saved.step) << what;
+    resumed.run(10);
+    const ms::ParticleSet p = resumed.particles();
+    ASSERT_EQ(p.size(), after.size()) << what;
+    EXPECT_EQ(p.id, after.id) << what;
+    EXPECT_EQ(p.type, after.type) << what;
+    EXPECT_LT(max_difference(p.x, after.x), 1e-8) << what;
+    EXPECT_LT(max_difference(p.vz, after.vz), 1e-7) << what;
+  };
+
+  auto dd = ms::make_simulation(s.model, s.box, s.particles, 0.01, decomposed());
+  dd->run(30);
+  const ms::SimulationState gathered = dd->state().in_original_order();
+  ASSERT_EQ(gathered.size(), s.particles.size());
+  EXPECT_EQ(gathered.step, 30u);
+  EXPECT_FALSE(gathered.bvf.empty());
+  EXPECT_FALSE(gathered.vex.empty());
+  dd->run(10);
+  const ms::ParticleSet after = dd->particles();
+
+  // Through a file: rank 0 writes it, every rank reads it.
+  const std::string file = "decomposed_checkpoint_" + std::to_string(g_world->size()) + ".h5";
+  if (g_world->rank() == 0) {
+    ms::CheckpointFile c;
+    c.state = gathered;
+    c.created_by = "unit_mpi";
+    ms::write_checkpoint(file, c);
+  }
+  g_world->barrier();
+  const ms::SimulationState read = ms::read_checkpoint(file).state;
+  g_world->barrier();
+  if (g_world->rank() == 0) std::remove(file.c_str());
+
+  auto on_ranks = ms::resume_simulation(s.model, s.box, read, decomposed());
+  expect_follows(*on_ranks, gathered, after, "resumed on the same ranks");
+  auto on_one = ms::resume_simulation(s.model, s.box, read, single());
+  expect_follows(*on_one, gathered, after, "resumed on one rank");
+
+  auto one = ms::make_simulation(s.model, s.box, s.particles, 0.01, single());
+  one->run(30);
+  const ms::SimulationState sorted = one->state();  // storage order, not the original one
+  one->run(10);
+  auto spread = ms::resume_simulation(s.model, s.box, sorted, decomposed());
+  expect_follows(*spread, sorted.in_original_order(), one->particles(),
+                 "a single-rank state resumed decomposed");
+
+  // A state that does not fit the model is refused on every rank alike (no rank left waiting).
+  ms::Model no_walls = s.model;
+  no_walls.wall_model.enabled = false;
+  EXPECT_THROW(ms::resume_simulation(no_walls, s.box, read, decomposed()), mesorock::ConfigError);
 }
 
 // Half the box is empty: equal slabs give the ranks on the empty side nothing to do; RCB on the

@@ -8,9 +8,13 @@
 #include <unistd.h>
 
 #include <fcntl.h>
+#include <algorithm>
+#include <cctype>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -182,6 +186,111 @@ TEST_F(Resume, CtrlCLeavesACheckpointAndExits130) {
       mesorock::test::run_command(rockflow_run(scene_, out, " --resume"), dir_->path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   expect_same_run(*dir_ / "whole", out);
+}
+
+// The mean of a thermo.csv column over the rows after `from_step`.
+double mean_after(const fs::path& thermo, std::uint64_t from_step, int column) {
+  std::istringstream in(mesorock::test::read_file(thermo));
+  std::string line;
+  double sum = 0;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || !std::isdigit(static_cast<unsigned char>(line[0]))) continue;
+    std::vector<std::string> cells;
+    std::stringstream row(line);
+    for (std::string c; std::getline(row, c, ',');) cells.push_back(c);
+    if (std::stoull(cells.at(0)) <= from_step) continue;
+    sum += std::stod(cells.at(static_cast<size_t>(column)));
+    ++n;
+  }
+  return n > 0 ? sum / n : 0.0;
+}
+
+// mpirun -np 2: a decomposed run writes periodic checkpoints (every rank's particles gathered,
+// rank 0 writes). A copy of its first one, taken while it runs (the file is replaced by rename, so
+// a copy is always whole), resumes on two ranks and on one. Decomposed runs are not bit for bit
+// (the order of the force sums differs), so each resumed run must end at the uninterrupted
+// decomposed run's step and time with the same particles (ids, types), as many thermo rows, no
+// checkpoint left, and a mean temperature after the checkpoint within 5% of that run's
+// (thermostat at kBT = 1; means over ~10 rows of ~500 particles scatter by about 1%).
+TEST_F(Resume, DecomposedRunCheckpointsAndResumesOnTwoRanksOrOne) {
+#if !defined(MESOROCK_MPIEXEC)
+  GTEST_SKIP() << "this build has no MPI";
+#else
+  setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  setenv("OMP_NUM_THREADS", "1", 1);
+  const std::string mpirun = MESOROCK_MPIEXEC;
+  const fs::path out = *dir_ / "decomposed", on_two = *dir_ / "on_two", on_one = *dir_ / "on_one";
+  fs::create_directories(on_two);
+  fs::create_directories(on_one);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = open((*dir_ / "decomposed.err").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) dup2(fd, 2);
+    const std::string exe = MESOROCK_ROCKFLOW, scene = scene_.string(), o = out.string();
+    execl(mpirun.c_str(), mpirun.c_str(), "-np", "2", "--oversubscribe", exe.c_str(), "run",
+          scene.c_str(), "--out", o.c_str(), "--threads", "1", "--checkpoint-every", "100",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  bool copied = false;
+  int status = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(300)) {
+    if (waitpid(pid, &status, WNOHANG) == pid) break;
+    std::error_code ec;
+    if (!copied && fs::copy_file(out / "checkpoint.h5", on_two / "checkpoint.h5", ec)) {
+      fs::copy_file(on_two / "checkpoint.h5", on_one / "checkpoint.h5");
+      copied = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  if (!WIFEXITED(status)) {  // still running after 300 s: end it
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
+  }
+  const std::string err = mesorock::test::read_file(*dir_ / "decomposed.err");
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << err;
+  ASSERT_TRUE(copied) << "the run ended before its first checkpoint could be copied";
+  EXPECT_FALSE(fs::exists(out / "checkpoint.h5")) << "a completed run removes its checkpoint";
+  const auto checkpoint = mesorock::sim::read_checkpoint(on_two / "checkpoint.h5");
+  ASSERT_GT(checkpoint.state.step, 0u);
+  EXPECT_EQ(checkpoint.state.step % 100, 0u);
+  EXPECT_EQ(checkpoint.scene_text, kScene);
+
+  const CommandResult two = mesorock::test::run_command(
+      mesorock::test::shell_quote(mpirun) + " -np 2 --oversubscribe " +
+          mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
+          mesorock::test::shell_quote(scene_.string()) + " --out " +
+          mesorock::test::shell_quote(on_two.string()) + " --threads 1 --resume",
+      dir_->path());
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_NE(two.err.find("resumed at step"), std::string::npos) << two.err;
+  const CommandResult one =
+      mesorock::test::run_command(rockflow_run(scene_, on_one, " --resume"), dir_->path());
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+
+  mesorock::sim::ParticleFileMeta mu;
+  const auto uninterrupted = mesorock::sim::read_particle_file(out / "final.h5", &mu);
+  const double T_ref = mean_after(out / "thermo.csv", checkpoint.state.step, 3);
+  const auto rows = [](const fs::path& f) {
+    const std::string t = mesorock::test::read_file(f);
+    return std::count(t.begin(), t.end(), '\n');
+  };
+  for (const fs::path& run : {on_two, on_one}) {
+    mesorock::sim::ParticleFileMeta m;
+    const auto p = mesorock::sim::read_particle_file(run / "final.h5", &m);
+    EXPECT_EQ(m.step, mu.step) << run;
+    EXPECT_EQ(m.time, mu.time) << run;
+    EXPECT_EQ(p.id, uninterrupted.id) << run;
+    EXPECT_EQ(p.type, uninterrupted.type) << run;
+    EXPECT_EQ(rows(run / "thermo.csv"), rows(out / "thermo.csv")) << run;
+    EXPECT_FALSE(fs::exists(run / "checkpoint.h5")) << run;
+    const double T = mean_after(run / "thermo.csv", checkpoint.state.step, 3);
+    EXPECT_NEAR(T, T_ref, 0.05 * T_ref) << run;
+  }
+#endif
 }
 
 TEST(ResumeCli, ResumeWithoutCheckpointIsBadInput) {
