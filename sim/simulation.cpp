@@ -9,6 +9,7 @@
 #include "sim/domain/distributed.h"
 #include "sim/engine_cpu.h"
 #include "sim/engine_factory.h"
+#include "sim/host_reductions.h"
 #include "sim/state.h"
 #include "sim/state_snapshot.h"
 #include "sim/terms.h"
@@ -460,42 +461,20 @@ class SimulationImpl final : public Simulation {
 
   double kinetic_temperature() override {
     sync();
-    double sum = 0;
-    size_t mobile = 0;
-    for (int i = 0; i < state_.size(); ++i) {
-      if (((state_.frozen_mask | state_.slabs.mask) >> state_.type[i]) & 1u) continue;
-      sum += double(state_.vx[i]) * state_.vx[i] + double(state_.vy[i]) * state_.vy[i] +
-             double(state_.vz[i]) * state_.vz[i];
-      ++mobile;
-    }
-    return mobile ? sum / (3.0 * static_cast<double>(mobile)) : 0.0;
+    const MobileSums m = mobile_sums(state_, [](int) { return true; });
+    return m.count > 0 ? m.v2 / (3.0 * m.count) : 0.0;
   }
 
   std::array<double, 3> momentum() override {
     sync();
-    std::array<double, 3> m{0, 0, 0};
-    for (int i = 0; i < state_.size(); ++i) {
-      if (((state_.frozen_mask | state_.slabs.mask) >> state_.type[i]) & 1u) continue;
-      m[0] += state_.vx[i];
-      m[1] += state_.vy[i];
-      m[2] += state_.vz[i];
-    }
-    return m;
+    return mobile_sums(state_, [](int) { return true; }).p;
   }
 
   StressSample stress() override { return stress_of(VirialRegion<Real>{}, box_.volume()); }
 
   StressSample region_stress(const RegionSelection& r) override {
-    VirialRegion<Real> region;
-    region.active = true;
-    region.type_mask = r.type_mask;
     double volume = 1;
-    for (int a = 0; a < 3; ++a) {
-      if (!(r.hi[a] > r.lo[a])) throw ConfigError("region stress: hi must exceed lo on every axis");
-      region.lo[a] = static_cast<Real>(r.lo[a]);
-      region.hi[a] = static_cast<Real>(r.hi[a]);
-      volume *= r.hi[a] - r.lo[a];
-    }
+    const VirialRegion<Real> region = virial_region_of<Real>(r, &volume);
     return stress_of(region, volume);
   }
 
@@ -507,21 +486,10 @@ class SimulationImpl final : public Simulation {
     StressSample out;
     out.volume = volume;
     const double inv_v = 1.0 / out.volume;
-    const StepView<Real> v = state_.view();
-    for (int i = 0; i < state_.size(); ++i) {
-      if (((state_.frozen_mask | state_.slabs.mask) >> state_.type[i]) & 1u) continue;
-      if (!region.contains(v, i)) continue;
-      const double v[3] = {double(state_.vx[i]), double(state_.vy[i]), double(state_.vz[i])};
-      out.kinetic[0] += v[0] * v[0];
-      out.kinetic[1] += v[1] * v[1];
-      out.kinetic[2] += v[2] * v[2];
-      out.kinetic[3] += v[0] * v[1];
-      out.kinetic[4] += v[0] * v[2];
-      out.kinetic[5] += v[1] * v[2];
-    }
+    const std::array<double, 6> kinetic = kinetic_stress_sums(state_, region);
     const VirialSums w = engine_->virial(region);
     for (int c = 0; c < 6; ++c) {
-      out.kinetic[c] *= inv_v;
+      out.kinetic[c] = kinetic[c] * inv_v;
       out.conservative[c] = w.conservative[c] * inv_v;
       out.dissipative[c] = w.dissipative[c] * inv_v;
       out.random[c] = w.random[c] * inv_v;
@@ -531,9 +499,7 @@ class SimulationImpl final : public Simulation {
 
  public:
   std::vector<double> bin_sums(const BinGrid& grid) override {
-    for (int a = 0; a < 3; ++a)
-      if (grid.cells[static_cast<size_t>(a)] < 1 || !(grid.width(a) > 0))
-        throw ConfigError("bins: every axis needs at least one bin of positive width");
+    check_bin_grid(grid);
     std::vector<double> sums;
     engine_->bin_sums(grid, sums);
     return sums;

@@ -15,6 +15,7 @@
 #include "sim/domain/communicator.h"
 #include "sim/domain/decomposition.h"
 #include "sim/engine_factory.h"
+#include "sim/host_reductions.h"
 #include "sim/state_snapshot.h"
 #include "sim/terms.h"
 
@@ -45,7 +46,6 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     ids_ = p.id;
     for (int t = 0; t < model.ntypes(); ++t)
       if (model.types[static_cast<size_t>(t)].frozen) frozen_mask_ |= 1u << t;
-    for (const RigidSlabSpec& r : model.rigid_slabs) slab_mask_ |= 1u << r.type;
 
     // The first decomposition weighs the particles by their type alone (no neighbour counts
     // exist yet): every rank holds the whole initial set, so each computes the same one.
@@ -268,40 +268,21 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   }
   double kinetic_temperature() override {
     sync();
-    double s[2] = {0, 0};
-    for_owned([&](int i) {
-      if (((frozen_mask_ | slab_mask_) >> state_.type[i]) & 1u) return;
-      s[0] += double(state_.vx[i]) * state_.vx[i] + double(state_.vy[i]) * state_.vy[i] +
-              double(state_.vz[i]) * state_.vz[i];
-      s[1] += 1;
-    });
+    const MobileSums m = mobile_sums(state_, [&](int i) { return state_.origin[i] >= 0; });
+    double s[2] = {m.v2, m.count};
     comm_->sum(s, 2);
     return s[1] > 0 ? s[0] / (3.0 * s[1]) : 0.0;
   }
   std::array<double, 3> momentum() override {
     sync();
-    std::array<double, 3> m{0, 0, 0};
-    for_owned([&](int i) {
-      if (((frozen_mask_ | slab_mask_) >> state_.type[i]) & 1u) return;
-      m[0] += state_.vx[i];
-      m[1] += state_.vy[i];
-      m[2] += state_.vz[i];
-    });
-    comm_->sum(m.data(), 3);
-    return m;
+    std::array<double, 3> p = mobile_sums(state_, [&](int i) { return state_.origin[i] >= 0; }).p;
+    comm_->sum(p.data(), 3);
+    return p;
   }
   StressSample stress() override { return stress_of(VirialRegion<Real>{}, box_.volume()); }
   StressSample region_stress(const RegionSelection& r) override {
-    VirialRegion<Real> region;
-    region.active = true;
-    region.type_mask = r.type_mask;
     double volume = 1;
-    for (int a = 0; a < 3; ++a) {
-      if (!(r.hi[a] > r.lo[a])) throw ConfigError("region stress: hi must exceed lo on every axis");
-      region.lo[a] = static_cast<Real>(r.lo[a]);
-      region.hi[a] = static_cast<Real>(r.hi[a]);
-      volume *= r.hi[a] - r.lo[a];
-    }
+    const VirialRegion<Real> region = virial_region_of<Real>(r, &volume);
     return stress_of(region, volume);
   }
   std::vector<InjectionCounts> injections() override {
@@ -314,9 +295,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     return c;
   }
   std::vector<double> bin_sums(const BinGrid& grid) override {
-    for (int a = 0; a < 3; ++a)
-      if (grid.cells[static_cast<size_t>(a)] < 1 || !(grid.width(a) > 0))
-        throw ConfigError("bins: every axis needs at least one bin of positive width");
+    check_bin_grid(grid);
     std::vector<double> sums;
     engine_->bin_sums(grid, sums);
     comm_->sum(sums.data(), static_cast<int>(sums.size()));
@@ -424,17 +403,11 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     sync();
     StressSample out;
     out.volume = volume;
-    const StepView<Real> v = state_.view();
     double sums[24] = {};
-    for (int i = 0; i < state_.size(); ++i) {
-      if (((frozen_mask_ | slab_mask_) >> state_.type[i]) & 1u) continue;
-      if (!region.contains(v, i)) continue;  // ghosts excluded there too
-      const double u[3] = {double(state_.vx[i]), double(state_.vy[i]), double(state_.vz[i])};
-      sums[0] += u[0] * u[0], sums[1] += u[1] * u[1], sums[2] += u[2] * u[2];
-      sums[3] += u[0] * u[1], sums[4] += u[0] * u[2], sums[5] += u[1] * u[2];
-    }
+    const std::array<double, 6> kinetic = kinetic_stress_sums(state_, region);  // no ghosts
     const VirialSums w = engine_->virial(region);
     for (int c = 0; c < 6; ++c) {
+      sums[c] = kinetic[c];
       sums[6 + c] = w.conservative[c];
       sums[12 + c] = w.dissipative[c];
       sums[18 + c] = w.random[c];
@@ -605,7 +578,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   std::unordered_map<std::int64_t, std::int32_t> id_index_;
   std::vector<std::int64_t> ids_;  // the ids in the original order
   size_t total_ = 0;
-  std::uint32_t frozen_mask_ = 0, slab_mask_ = 0;
+  std::uint32_t frozen_mask_ = 0;  // for the load-balance cost
   LocalRegion<Real> region_;
   std::vector<LocalRegion<Real>> owners_;
   std::vector<HaloBox<Real>> halo_boxes_;
