@@ -567,6 +567,7 @@ std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec&
                                               const SimulationState& state,
                                               const SimulationOptions& options) {
   state.check();
+  state.check_fits(model);  // on the whole state: every rank of a decomposed resume agrees
   validate_inputs(model, box, state.particles(), state.dt, state.step);
   if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
     return resume_distributed_simulation(model, box, state, options);

@@ -43,7 +43,6 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
         throw ConfigError("a decomposed run needs unique particle ids (id " +
                           std::to_string(p.id[i]) + " repeats)");
     total_ = p.size();
-    ids_ = p.id;
     for (int t = 0; t < model.ntypes(); ++t)
       if (model.types[static_cast<size_t>(t)].frozen) frozen_mask_ |= 1u << t;
 
@@ -332,30 +331,46 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   // physics, not bit for bit: storage order (so the order of force sums) and the regions of the
   // re-balances are not kept.
   SimulationState state() override {
-    sync();
+    // One record per owned particle; arrays the model does not use (v~ without a thermostat,
+    // phi without the wall model) travel as zeros and are left out of the state.
+    struct Rec {
+      double v[14];  // x y z, v, v~, f, rho, phi
+      std::int64_t id;
+      std::int32_t type;
+    };
+    const std::vector<Real>* in[14] = {
+        &state_.x,   &state_.y,   &state_.z,  &state_.vx, &state_.vy, &state_.vz,  &state_.vex,
+        &state_.vey, &state_.vez, &state_.fx, &state_.fy, &state_.fz, &state_.rho, &state_.bvf};
+    std::vector<Rec> mine;
+    for_owned([&](int i) {
+      Rec r{};
+      for (int a = 0; a < 14; ++a)
+        if (!in[a]->empty()) r.v[a] = double((*in[a])[static_cast<size_t>(i)]);
+      r.id = state_.id[i];
+      r.type = state_.type[i];
+      mine.push_back(r);
+    });
     SimulationState out;
     out.precision = std::is_same_v<Real, float> ? Precision::Single : Precision::Double;
     out.step = engine_->step();
     out.dt = dt_;
-    // Decided by the model, not by this rank's arrays (a rank may own no particle): every rank
-    // makes the same gathers.
-    auto field = [&](const std::vector<Real>& a, bool present) {
-      if (!present) return std::vector<double>{};
-      return gather_field([&](int i) { return double(a[static_cast<size_t>(i)]); });
-    };
-    const bool ve = model_.thermostat, walls = model_.wall_model.enabled;
-    const std::vector<Real>* in[14] = {
-        &state_.x,   &state_.y,   &state_.z,  &state_.vx, &state_.vy, &state_.vz,  &state_.vex,
-        &state_.vey, &state_.vez, &state_.fx, &state_.fy, &state_.fz, &state_.rho, &state_.bvf};
     std::vector<double>* to[14] = {&out.x,  &out.y,   &out.z,   &out.vx,  &out.vy,
                                    &out.vz, &out.vex, &out.vey, &out.vez, &out.fx,
                                    &out.fy, &out.fz,  &out.rho, &out.bvf};
-    for (int a = 0; a < 14; ++a)
-      *to[a] = field(*in[a], (a < 6 || a > 8 || ve) && (a != 13 || walls));
-    const std::vector<double> types =
-        gather_field([&](int i) { return double(state_.type[static_cast<size_t>(i)]); });
-    out.type.assign(types.begin(), types.end());
-    out.id = ids_;
+    const bool ve = model_.thermostat, walls = model_.wall_model.enabled;
+    for (int a = 0; a < 14; ++a) {
+      const bool present = a == 13 ? walls : (a >= 6 && a <= 8 ? ve : true);
+      if (present) to[a]->assign(total_, 0.0);
+    }
+    out.type.assign(total_, 0);
+    out.id.assign(total_, 0);
+    for (const Rec& r : comm_->allgather_records(mine)) {
+      const size_t k = index_of(r.id);
+      for (int a = 0; a < 14; ++a)
+        if (!to[a]->empty()) (*to[a])[k] = r.v[a];
+      out.type[k] = r.type;
+      out.id[k] = r.id;
+    }
     out.origin.resize(total_);
     for (size_t k = 0; k < total_; ++k) out.origin[k] = static_cast<std::int32_t>(k);
     out.slabs = state_.slab_bodies;  // the same on every rank (their forces are summed)
@@ -576,7 +591,6 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   bool host_current_ = false;
   bool geometry_pending_ = false;  // new regions chosen; the engine takes them before the next step
   std::unordered_map<std::int64_t, std::int32_t> id_index_;
-  std::vector<std::int64_t> ids_;  // the ids in the original order
   size_t total_ = 0;
   std::uint32_t frozen_mask_ = 0;  // for the load-balance cost
   LocalRegion<Real> region_;
@@ -600,7 +614,6 @@ std::unique_ptr<Simulation> resume_distributed_simulation(const Model& model, co
                                                           const SimulationState& state,
                                                           const SimulationOptions& options) {
   if (!options.comm) throw ConfigError("a decomposed run needs a communicator");
-  state.check_fits(model);  // on the whole state: every rank throws, or none
   const SimulationState ordered = state.in_original_order();
   const ParticleSet p = ordered.particles();
   if (model.precision == Precision::Single)

@@ -14,6 +14,7 @@ std::unique_ptr<Simulation> make_distributed_simulation(const Model& model, cons
                                                         const SimulationOptions& options);
 // Continues a run from a saved state (sim/checkpoint.h) of a run on any number of ranks, one
 // included: each rank takes the saved particles in its region with their velocities and forces.
+// resume_simulation calls it after checking that the state fits the model.
 std::unique_ptr<Simulation> resume_distributed_simulation(const Model& model, const BoxSpec& box,
                                                           const SimulationState& state,
                                                           const SimulationOptions& options);
