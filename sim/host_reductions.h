@@ -34,6 +34,28 @@ MobileSums mobile_sums(const HostState<Real>& s, Counted&& counted) {
   return m;
 }
 
+// The leak invariant over the particles `counted(i)` accepts, skipping frozen types and slabs.
+// Serial, so the deepest particle (ties: the smaller id) does not depend on the thread count.
+template <class Real, class Counted>
+SolidIntrusion solid_intrusion_of(const HostState<Real>& s, Counted&& counted) {
+  SolidIntrusion r;
+  if (!s.solid.enabled()) return r;
+  r.available = true;
+  const std::uint32_t skip = s.frozen_mask | s.slabs.mask;
+  for (int i = 0; i < s.size(); ++i) {
+    if (((skip >> s.type[i]) & 1u) || !counted(i) || !s.solid.in_solid(s.x[i], s.y[i], s.z[i]))
+      continue;
+    ++r.inside;
+    const double d = double(s.solid.depth(s.x[i], s.y[i], s.z[i]));
+    if (r.deepest_id < 0 || d > r.max_depth || (d == r.max_depth && s.id[i] < r.deepest_id)) {
+      r.max_depth = d;
+      r.deepest_id = s.id[i];
+      r.deepest_position = {double(s.x[i]), double(s.y[i]), double(s.z[i])};
+    }
+  }
+  return r;
+}
+
 // The kinetic stress sums sum m v^a v^b (Voigt order, not yet over a volume) of the mobile
 // particles in `region` (ghosts are never in it). `s` is not const because HostState::view() is
 // not.

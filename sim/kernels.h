@@ -23,6 +23,7 @@
 #include "sim/pair_terms.h"
 #include "sim/rigid_slabs.h"
 #include "sim/rng.h"
+#include "sim/solid_grid.h"
 #include "sim/wall_model.h"
 
 namespace mesorock::sim {
@@ -64,6 +65,7 @@ struct StepView {
   std::uint32_t frozen_mask = 0;     // bit t set: type t never moves
   WallModelView<Real> walls;         // read only by the wall-model pass variants
   VirtualWalls<Real> virtual_walls;  // planes that keep some types on one side until a step
+  SolidView<Real> solid;             // the solid as voxels (sim/solid_grid.h); often none
   RigidSlabs<Real> slabs;            // pistons moving as rigid bodies (sim/rigid_slabs.h)
 
   Real rd = Real(0.75);
@@ -443,6 +445,38 @@ MESO_HD MESO_INLINE void apply_virtual_walls(const StepView<Real>& v, int i) {
   }
 }
 
+// The solid grid's bounce-back (sim/solid_grid.h). A particle whose move ended inside a solid
+// voxel is sent back: its velocity (and v~) reversed, v' = -v (no slip on a resting wall, like
+// the halfway bounce-back of lattice Boltzmann), and the move redone from where it started,
+// x = x0 + dt v'; if that lands in the solid too (a corner, a thin gap), it stays at x0, which is
+// in the pore. So no particle that starts a step in the pore ends it in the solid, whatever the
+// wall particles around it. One byte is read per particle and step; nothing more unless it hit.
+template <class Real, bool kVelocityEstimate>
+MESO_HD MESO_INLINE void bounce_off_solid(const StepView<Real>& v, int i, Real x0, Real y0,
+                                          Real z0) {
+  if (!v.solid.in_solid(v.x[i], v.y[i], v.z[i])) return;
+  v.vx[i] = -v.vx[i];
+  v.vy[i] = -v.vy[i];
+  v.vz[i] = -v.vz[i];
+  if constexpr (kVelocityEstimate) {
+    v.vex[i] = -v.vex[i];
+    v.vey[i] = -v.vey[i];
+    v.vez[i] = -v.vez[i];
+  }
+  v.x[i] = x0 + v.dt * v.vx[i];
+  v.y[i] = y0 + v.dt * v.vy[i];
+  v.z[i] = z0 + v.dt * v.vz[i];
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.x, v.vx, v.vex, 0);
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
+  apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
+  apply_virtual_walls<Real, kVelocityEstimate>(v, i);
+  if (v.solid.in_solid(v.x[i], v.y[i], v.z[i])) {
+    v.x[i] = x0;
+    v.y[i] = y0;
+    v.z[i] = z0;
+  }
+}
+
 // First half: v~ = v + lambda dt f; v += dt/2 f; x += dt v; boundaries.
 // v~ feeds only the dissipative force: without a thermostat (kVelocityEstimate false) it is
 // neither computed nor stored.
@@ -485,6 +519,7 @@ MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
   v.vx[i] += half * v.fx[i];
   v.vy[i] += half * v.fy[i];
   v.vz[i] += half * v.fz[i];
+  const Real x0 = v.x[i], y0 = v.y[i], z0 = v.z[i];
   v.x[i] += dt * v.vx[i];
   v.y[i] += dt * v.vy[i];
   v.z[i] += dt * v.vz[i];
@@ -492,6 +527,8 @@ MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
   apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
   apply_virtual_walls<Real, kVelocityEstimate>(v, i);
+  if (v.solid.bounce && v.solid.enabled())
+    bounce_off_solid<Real, kVelocityEstimate>(v, i, x0, y0, z0);
 }
 
 // Second half: v += dt/2 f(t + dt).
@@ -515,6 +552,7 @@ MESO_HD MESO_INLINE void kick(const StepView<Real>& v, int i) {
 template <class Real, bool kVelocityEstimate>
 MESO_HD MESO_INLINE void apply_penetration_correction(const StepView<Real>& v, int i,
                                                       const Real dv[3]) {
+  const Real x0 = v.x[i], y0 = v.y[i], z0 = v.z[i];  // the predictor's (in the pore)
   v.vx[i] += dv[0];
   v.vy[i] += dv[1];
   v.vz[i] += dv[2];
@@ -530,6 +568,13 @@ MESO_HD MESO_INLINE void apply_penetration_correction(const StepView<Real>& v, i
   apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
   apply_virtual_walls<Real, kVelocityEstimate>(v, i);
+  // The solid grid has the last word: a correction that would end in a solid voxel keeps the
+  // turned velocity but not the move.
+  if (v.solid.bounce && v.solid.enabled() && v.solid.in_solid(v.x[i], v.y[i], v.z[i])) {
+    v.x[i] = x0;
+    v.y[i] = y0;
+    v.z[i] = z0;
+  }
 }
 
 // Particle i's force along slab k's axis if it belongs to slab k, else 0 (the rigid-body

@@ -8,6 +8,7 @@
 
 #include "sim/injection.h"
 #include "sim/rigid_slabs.h"
+#include "sim/solid_grid.h"
 #include "sim/wall_model.h"
 
 namespace mesorock::sim {
@@ -101,6 +102,9 @@ struct Model {
   std::uint64_t seed = 1;
   Precision precision = Precision::Double;
   WallModelSpec wall_model;
+  // The solid as voxels (sim/solid_grid.h): mobile particles are kept out of it and counted
+  // when they get in. Off (no mask) unless the scene gives one.
+  SolidSpec solid;
   std::vector<VirtualWallSpec> virtual_walls;  // at most kMaxVirtualWalls
   std::vector<RigidSlabSpec> rigid_slabs;      // at most kMaxRigidSlabs
   std::vector<InjectionSpec> injections;       // at most kMaxInjections

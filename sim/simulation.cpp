@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "mesorock/errors.h"
@@ -30,7 +31,39 @@ void check_finite(double v, const std::string& what) {
   if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
 }
 
+// Whether the solid grid spans the box edge along axis a (then its indices wrap on a periodic
+// axis): same start and length to a millionth of the edge.
+bool grid_spans_axis(const SolidMask& g, const BoxSpec& box, int a) {
+  const auto k = static_cast<size_t>(a);
+  const double len = box.length(a), tol = 1e-6 * len;
+  return std::abs(g.origin[k] - box.lo[k]) <= tol &&
+         std::abs(static_cast<double>(g.dims[k]) * g.voxel[k] - len) <= tol;
+}
+
 }  // namespace
+
+template <class Real>
+SolidView<Real> solid_view_of(const SolidSpec& spec, const BoxSpec& box) {
+  SolidView<Real> v;
+  if (!spec.mask) return v;
+  const SolidMask& g = *spec.mask;
+  v.solid = g.solid.data();
+  for (int a = 0; a < 3; ++a) {
+    const auto k = static_cast<size_t>(a);
+    v.dims[a] = static_cast<int>(g.dims[k]);
+    v.origin[a] = static_cast<Real>(g.origin[k]);
+    v.voxel[a] = static_cast<Real>(g.voxel[k]);
+    v.inv_voxel[a] = static_cast<Real>(1.0 / g.voxel[k]);
+    v.periodic[a] = box.periodic[k] && grid_spans_axis(g, box, a);
+    // Far enough that every depth up to the stop depth is found exactly.
+    v.reach[a] = static_cast<int>(std::ceil(spec.stop_depth / g.voxel[k])) + 1;
+  }
+  v.bounce = spec.bounce;
+  v.stop_depth = static_cast<Real>(spec.stop_depth);
+  return v;
+}
+template SolidView<float> solid_view_of<float>(const SolidSpec&, const BoxSpec&);
+template SolidView<double> solid_view_of<double>(const SolidSpec&, const BoxSpec&);
 
 // step: the step the particles are at (a virtual wall that was lifted before it checks nothing).
 void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt,
@@ -63,6 +96,20 @@ void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, d
       if (m.conservative == ConservativeKind::DPD && q.B != 0)
         throw ConfigError("B is only meaningful for the mdpd conservative force");
     }
+  }
+  if (m.solid.mask) {
+    const SolidMask& g = *m.solid.mask;
+    g.check("solid grid");
+    if (g.dims[0] > 1 << 24 || g.dims[1] > 1 << 24 || g.dims[2] > 1 << 24)
+      throw ConfigError("solid grid: at most 2^24 voxels along an axis");
+    check_finite(m.solid.stop_depth, "solid stop depth");
+    if (!(m.solid.stop_depth > 0) || m.solid.stop_depth > 4)
+      throw ConfigError("solid stop depth must be in (0, 4] rc");
+    for (int a = 0; a < 3; ++a)
+      if (box.periodic[a] && !grid_spans_axis(g, box, a) &&
+          g.origin[a] + g.dims[a] * g.voxel[a] > box.lo[a] + box.length(a) * (1 + 1e-6))
+        throw ConfigError(
+            "solid grid: it extends past the box along a periodic axis without spanning it");
   }
   for (int a = 0; a < 3; ++a) {
     check_finite(box.lo[a], "box lo");
@@ -171,6 +218,12 @@ void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, d
       p.vz.size() != n || p.type.size() != n || p.id.size() != n)
     throw ConfigError("particle arrays have different lengths");
   if (n > static_cast<size_t>(2147483647)) throw ConfigError("too many particles for one rank");
+  const SolidView<double> solid = solid_view_of<double>(m.solid, box);
+  auto is_slab = [&](int t) {
+    for (const RigidSlabSpec& r : m.rigid_slabs)
+      if (r.type == t) return true;
+    return false;
+  };
   for (size_t i = 0; i < n; ++i) {
     if (p.type[i] < 0 || p.type[i] >= m.ntypes()) {
       std::ostringstream s;
@@ -190,6 +243,14 @@ void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, d
         s << "particle " << p.id[i] << " lies outside the box";
         throw ConfigError(s.str());
       }
+    }
+    if (m.solid.mask && !m.types[static_cast<size_t>(p.type[i])].frozen &&
+        solid.in_solid(c[0], c[1], c[2]) && !is_slab(p.type[i])) {
+      std::ostringstream s;
+      s << "particle " << p.id[i] << " (type " << m.types[static_cast<size_t>(p.type[i])].name
+        << ") starts inside a solid voxel of the solid grid, at (" << c[0] << ", " << c[1] << ", "
+        << c[2] << ")";
+      throw ConfigError(s.str());
     }
     for (size_t k = 0; k < m.virtual_walls.size(); ++k) {
       const VirtualWallSpec& w = m.virtual_walls[k];
@@ -260,6 +321,7 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
     s.kappa.assign(table.begin(), table.end());
     s.bvf.assign(p.size(), Real(0));
   }
+  s.solid = solid_view_of<Real>(model.solid, box);
   s.virtual_walls.count = static_cast<int>(model.virtual_walls.size());
   for (size_t k = 0; k < model.virtual_walls.size(); ++k) {
     const VirtualWallSpec& w = model.virtual_walls[k];
@@ -337,6 +399,33 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
   }
   s.type = p.type;
   s.id = p.id;
+  // A mobile particle in the pore in double precision may round into the solid voxel next to
+  // it in single (a packed particle sits just inside its voxel's face): move it back by the
+  // fewest ulps, so the solid grid's invariant (no mobile particle inside) holds from step 0.
+  if (s.solid.enabled()) {
+    const std::uint32_t skip = s.frozen_mask | s.slabs.mask;
+    for (size_t i = 0; i < n; ++i) {
+      if (((skip >> s.type[i]) & 1u) || !s.solid.in_solid(s.x[i], s.y[i], s.z[i])) continue;
+      Real* c[3] = {&s.x[i], &s.y[i], &s.z[i]};
+      bool fixed = false;
+      for (int k = 1; k <= 16 && !fixed; ++k)
+        for (int a = 0; a < 3 && !fixed; ++a)
+          for (const Real toward :
+               {-std::numeric_limits<Real>::infinity(), std::numeric_limits<Real>::infinity()}) {
+            const Real keep = *c[a];
+            for (int u = 0; u < k; ++u) *c[a] = std::nextafter(*c[a], toward);
+            if (!s.solid.in_solid(s.x[i], s.y[i], s.z[i])) {
+              fixed = true;
+              break;
+            }
+            *c[a] = keep;
+          }
+      if (!fixed)
+        throw ConfigError("particle " + std::to_string(p.id[i]) +
+                          " lies inside a solid voxel of the solid grid in " +
+                          (sizeof(Real) == 4 ? "single" : "double") + " precision");
+    }
+  }
   // Shared by every engine: original order, zeroed forces and densities, and v~ = v only when
   // the thermostat needs it (an unused observable or term owns no memory).
   s.origin.resize(n);
@@ -479,6 +568,12 @@ class SimulationImpl final : public Simulation {
   }
 
   std::vector<InjectionCounts> injections() override { return engine_->injection_counts(); }
+
+  SolidIntrusion solid_intrusion() override {
+    if (!state_.solid.enabled()) return {};
+    sync();
+    return solid_intrusion_of(state_, [](int) { return true; });
+  }
 
  private:
   StressSample stress_of(const VirialRegion<Real>& region, double volume) {

@@ -83,6 +83,16 @@ struct RigidSlabState {
   double position = 0, velocity = 0, force = 0, applied_force = 0, mass = 0;
 };
 
+// The leak invariant (sim/solid_grid.h): the mobile particles inside the solid grid's solid
+// voxels, i.e. past the no-slip surface into a grain. Rigid slabs are not counted.
+struct SolidIntrusion {
+  bool available = false;    // false: the run has no solid grid
+  std::uint64_t inside = 0;  // mobile particles inside a solid voxel
+  double max_depth = 0;      // how deep the deepest of them is, rc (0 when none is inside)
+  std::int64_t deepest_id = -1;
+  std::array<double, 3> deepest_position{0, 0, 0};
+};
+
 // The particles a region's stress covers: the given types inside the box [lo, hi).
 struct RegionSelection {
   std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
@@ -122,6 +132,8 @@ class Simulation {
   // Per injection/ejection boundary (Model::injections): particles moved so far and events that
   // found no candidate in the outlet box.
   virtual std::vector<InjectionCounts> injections() = 0;
+  // The leak invariant now (available = false without a solid grid).
+  virtual SolidIntrusion solid_intrusion() = 0;
   // Per-bin sums over the current configuration (kBinFields per bin: count, sum v, sum v*v), for
   // profiles and fields; average them with BinnedAverage. Computed where the particles live (on
   // the device for CUDA); only the bins cross to the host.

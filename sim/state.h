@@ -37,6 +37,8 @@ struct HostState {
   std::uint32_t frozen_mask = 0;
   WallModelView<Real> walls;  // its kappa pointer is set by view() (host) or the engine (device)
   VirtualWalls<Real> virtual_walls;
+  // The solid grid (its bytes belong to the model's mask; the CUDA engine keeps a device copy).
+  SolidView<Real> solid;
   // Rigid slabs: the bodies (double precision) and the velocities the kernels read.
   RigidSlabs<Real> slabs;
   std::vector<RigidSlabBody> slab_bodies;
@@ -95,6 +97,7 @@ struct HostState {
     v.body_force = body_force.data();
     v.frozen_mask = frozen_mask;
     v.virtual_walls = virtual_walls;
+    v.solid = solid;
     v.slabs = slabs;
     v.slabs.half_velocity = slab_half_velocity.data();
     v.slabs.velocity = slab_velocity.data();

@@ -56,6 +56,11 @@ std::string watchdog_message(const WatchdogHit& hit, const WatchdogOptions& o, d
              " rc per step at dt = " + number(dt) + "); dt may be too large for these forces";
     case kWatchdogPosition:
       return s + "position is not finite (" + number(hit.value) + ")" + advice;
+    case kWatchdogSolid:
+      return s + "fluid leaked into the solid: at (" + number(hit.position[0]) + ", " +
+             number(hit.position[1]) + ", " + number(hit.position[2]) + "), " + number(hit.value) +
+             " rc inside a solid voxel, deeper than the stop depth (the solid grid's bounce "
+             "did not hold it back, or it is off)";
     default:
       return s + "unknown watchdog quantity " + std::to_string(hit.quantity);
   }
@@ -79,6 +84,9 @@ void watchdog_scan(const StepView<Real>& v, const WatchdogOptions& o) {
       const int q = watchdog_check(v, i, max_speed2, value);
       if (q == kWatchdogOk || (hit && v.id[i] >= mine.id)) continue;
       mine = WatchdogHit{v.step, v.id[i], q, value};
+      mine.position[0] = double(v.x[i]);
+      mine.position[1] = double(v.y[i]);
+      mine.position[2] = double(v.z[i]);
       hit = true;
     }
     if (hit) {

@@ -40,13 +40,15 @@ enum WatchdogQuantity : int {
   kWatchdogForce = 1,     // a force component is not finite
   kWatchdogVelocity = 2,  // |v| is not finite or above the runaway limit
   kWatchdogPosition = 3,  // a coordinate is not finite
+  kWatchdogSolid = 4,     // deeper inside the solid grid than its stop depth (sim/solid_grid.h)
 };
 
 struct WatchdogHit {
   std::uint64_t step = 0;
   std::int64_t id = 0;
   int quantity = kWatchdogOk;
-  double value = 0;  // |f|, |v| or the first non-finite coordinate
+  double value = 0;  // |f|, |v|, the first non-finite coordinate or the depth in the solid
+  double position[3] = {0, 0, 0};
 };
 
 // The device's record of hits. Only the first failing step records; its hits fill the slots in
@@ -94,13 +96,22 @@ MESO_HD MESO_INLINE int watchdog_check(const StepView<Real>& v, int i, Real max_
     value = !all_finite(x, x, x) ? double(x) : (!all_finite(y, y, y) ? double(y) : double(z));
     return kWatchdogPosition;
   }
+  // The leak invariant's stop (a fluid particle deep inside a grain): one byte read per particle
+  // unless it is inside a solid voxel.
+  if (v.solid.enabled() && !v.slabs.is_slab(v.type[i])) {
+    const Real d = v.solid.depth(x, y, z);
+    if (d > v.solid.stop_depth) {
+      value = double(d);
+      return kWatchdogSolid;
+    }
+  }
   return kWatchdogOk;
 }
 
 #if defined(__CUDACC__)
 // Device side of a hit: steps after the first failing one record nothing.
 __device__ inline void watchdog_record(WatchdogRecord* r, std::uint64_t step, std::int64_t id,
-                                       int quantity, double value) {
+                                       int quantity, double value, double x, double y, double z) {
   const unsigned long long s = static_cast<unsigned long long>(step);
   if (atomicMin(&r->first_step, s) < s) return;
   atomicMin(&r->min_id, static_cast<unsigned long long>(id));
@@ -111,6 +122,9 @@ __device__ inline void watchdog_record(WatchdogRecord* r, std::uint64_t step, st
     h.id = id;
     h.quantity = quantity;
     h.value = value;
+    h.position[0] = x;
+    h.position[1] = y;
+    h.position[2] = z;
   }
 }
 #endif

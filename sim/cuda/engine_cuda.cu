@@ -458,7 +458,9 @@ __global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecor
   if (i >= v.n) return;
   double value = 0;
   const int q = watchdog_check(v, i, max_speed2, value);
-  if (q != kWatchdogOk) watchdog_record(record, v.step, v.id[i], q, value);
+  if (q != kWatchdogOk)
+    watchdog_record(record, v.step, v.id[i], q, value, double(v.x[i]), double(v.y[i]),
+                    double(v.z[i]));
 }
 
 // Runs right after watchdog_kernel in the same step: returns at once unless this step's hits
@@ -479,6 +481,9 @@ __global__ void watchdog_resolve_kernel(StepView<Real> v, Real max_speed2, Watch
     h.id = v.id[i];
     h.quantity = q;
     h.value = value;
+    h.position[0] = double(v.x[i]);
+    h.position[1] = double(v.y[i]);
+    h.position[2] = double(v.z[i]);
     record->resolved = 1;
   }
 }
@@ -552,6 +557,12 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     origin_.upload(host.origin);
     table_.upload(host.table);
     body_force_.upload(host.body_force);
+    if (host.solid.enabled()) {  // the solid grid's bytes, once (they never change)
+      const std::size_t voxels =
+          static_cast<std::size_t>(host.solid.dims[0]) * host.solid.dims[1] * host.solid.dims[2];
+      if (solid_.size() != voxels)
+        solid_.upload(std::vector<std::uint8_t>(host.solid.solid, host.solid.solid + voxels));
+    }
     if constexpr (W::enabled) {
       bvf_.upload(host.bvf);
       kappa_.upload(host.kappa);
@@ -792,6 +803,7 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     v.rho = rho_.get();
     v.bvf = bvf_.get();
     v.walls.kappa = kappa_.get();
+    if (v.solid.enabled()) v.solid.solid = solid_.get();
     v.slabs.half_velocity = slab_half_velocity_.get();
     v.slabs.velocity = slab_velocity_.get();
     v.type = type_.get();
@@ -1112,7 +1124,7 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     b += (id_.size() + scratch_id_.size()) * sizeof(std::int64_t);
     for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
       b += a->size() * sizeof(int);
-    b += sort_temp_.size() + table_.size() * sizeof(PairParams<Real>) +
+    b += sort_temp_.size() + solid_.size() + table_.size() * sizeof(PairParams<Real>) +
          (virial_.size() + bins_.size()) * sizeof(double);
     return b;
   }
@@ -1144,8 +1156,9 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   DeviceBuffer<PairParams<Real>> table_;
   DeviceBuffer<Real> body_force_;
   DeviceBuffer<double> virial_, bins_;
-  DeviceBuffer<Real> bvf_, kappa_;  // wall model only
-  int nslabs_ = 0;                  // rigid slabs only:
+  DeviceBuffer<Real> bvf_, kappa_;    // wall model only
+  DeviceBuffer<std::uint8_t> solid_;  // the solid grid's voxels (scenes with one only)
+  int nslabs_ = 0;                    // rigid slabs only:
   DeviceBuffer<RigidSlabBody> slab_bodies_;
   DeviceBuffer<Real> slab_half_velocity_, slab_velocity_;
   DeviceBuffer<double> slab_partials_;

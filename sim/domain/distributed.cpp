@@ -278,6 +278,37 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     comm_->sum(p.data(), 3);
     return p;
   }
+  SolidIntrusion solid_intrusion() override {
+    if (!state_.solid.enabled()) return {};
+    sync();
+    SolidIntrusion r = solid_intrusion_of(state_, [&](int i) { return state_.origin[i] >= 0; });
+    // The counts add up; the deepest particle travels from its rank (depth first, then id).
+    std::uint64_t inside = r.inside;
+    comm_->sum(&inside, 1);
+    double deepest[5] = {r.deepest_id >= 0 ? r.max_depth : -1.0, 0, 0, 0, 0};
+    double best = deepest[0];
+    comm_->max(&best, 1);
+    std::uint64_t id = r.deepest_id >= 0 && deepest[0] == best
+                           ? static_cast<std::uint64_t>(r.deepest_id)
+                           : ~std::uint64_t(0);
+    comm_->min(&id, 1);
+    if (id != ~std::uint64_t(0) && static_cast<std::int64_t>(id) == r.deepest_id) {
+      for (int a = 0; a < 3; ++a) deepest[1 + a] = r.deepest_position[static_cast<size_t>(a)];
+      deepest[4] = 1;
+    } else {
+      for (double& d : deepest) d = 0;
+    }
+    comm_->sum(deepest + 1, 4);
+    SolidIntrusion out;
+    out.available = true;
+    out.inside = inside;
+    if (id != ~std::uint64_t(0)) {
+      out.max_depth = best;
+      out.deepest_id = static_cast<std::int64_t>(id);
+      for (int a = 0; a < 3; ++a) out.deepest_position[static_cast<size_t>(a)] = deepest[1 + a];
+    }
+    return out;
+  }
   StressSample stress() override { return stress_of(VirialRegion<Real>{}, box_.volume()); }
   StressSample region_stress(const RegionSelection& r) override {
     double volume = 1;
