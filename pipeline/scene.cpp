@@ -604,6 +604,46 @@ void read_walls(const Context& c, Table& top, Scene& s) {
   t.finish();
 }
 
+// [solid]: the solid as voxels (sim/solid_grid.h; rockprep writes solid.h5 beside the
+// particles). Mobile particles that drift into a solid voxel are sent back, the leak invariant
+// counts those inside, and one deeper than stop_depth stops the run (docs/walls.md).
+void read_solid(const Context& c, Table& top, Scene& s) {
+  const toml::table* tbl = top.table("solid");
+  if (!tbl) return;
+  Table t(c, *tbl, "solid", {"file", "bounce", "stop_depth", "stop_count"});
+  const std::string f = t.require_string("file");
+  if (f.empty()) fail(c, "solid.file", "must not be empty");
+  const fs::path path = fs::path(f).is_absolute() ? fs::path(f) : c.dir / f;
+  sim::SolidSpec& spec = s.model.solid;
+  if (auto b = t.boolean("bounce")) spec.bounce = *b;
+  if (auto d = t.number("stop_depth")) {
+    if (!(*d > 0 && *d <= 4))
+      fail(c, "solid.stop_depth", "must be in (0, 4] rc (got " + num(*d) + ")");
+    spec.stop_depth = *d;
+  }
+  if (auto n = t.integer("stop_count")) {
+    if (*n < 0) fail(c, "solid.stop_count", "must be >= 0 (got " + std::to_string(*n) + ")");
+    spec.stop_count = static_cast<std::uint64_t>(*n);
+  }
+  t.finish();
+  try {
+    spec.mask = std::make_shared<const sim::SolidMask>(sim::read_solid_file(path));
+  } catch (const IoError& e) {
+    throw IoError(c.file + ": solid.file: " + e.what());
+  }
+  const sim::SolidMask& m = *spec.mask;
+  for (int a = 0; a < 3; ++a) {
+    const auto k = static_cast<size_t>(a);
+    const double end = m.origin[k] + static_cast<double>(m.dims[k]) * m.voxel[k];
+    const double tol = 1e-6 * s.box.length(a);
+    if (m.origin[k] < s.box.lo[k] - tol || end > s.box.hi[k] + tol)
+      fail(c, "solid.file",
+           path.string() + ": the grid (" + num(m.origin[k]) + " to " + num(end) + " along " +
+               "xyz"[a] + ") does not fit in the box (" + num(s.box.lo[k]) + " to " +
+               num(s.box.hi[k]) + ")");
+  }
+}
+
 // [[virtual_walls]]: planes that keep some types on one side until a step (the 2020 paper's
 // virtual wall at the face of the pore block, removed when flooding starts).
 void read_virtual_walls(const Context& c, Table& top, Scene& s) {
@@ -953,8 +993,8 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   s.source_text = text;
   Table top(
       c, root, "",
-      {"name", "seed", "precision", "box", "model", "types", "pairs", "walls", "virtual_walls",
-       "slabs", "injection", "init", "run", "output", "units", "decomposition"});
+      {"name", "seed", "precision", "box", "model", "types", "pairs", "walls", "solid",
+       "virtual_walls", "slabs", "injection", "init", "run", "output", "units", "decomposition"});
   const std::string stem = path_for_messages.stem().string();
   s.name = top.string("name").value_or(stem.empty() ? "scene" : stem);
   if (s.name.empty()) fail(c, "name", "must not be empty");
@@ -971,6 +1011,7 @@ Scene parse_scene(const std::string& text, const fs::path& path_for_messages) {
   read_types(c, top, s);
   read_pairs(c, top, s);
   read_walls(c, top, s);
+  read_solid(c, top, s);
   read_virtual_walls(c, top, s);
   read_slabs(c, top, s);
   read_injection(c, top, s);

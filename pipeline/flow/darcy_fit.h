@@ -6,6 +6,7 @@
 // are 1 / error^2, and the parameter errors come from the inverse normal matrix (they assume the
 // points' errors are right and independent; chi2 says whether the model fits within them).
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -142,6 +143,39 @@ inline double chi2_99(int dof) {
   const double k = dof, z = 2.326;
   const double t = 1 - 2 / (9 * k) + z * std::sqrt(2 / (9 * k));
   return k * t * t * t;
+}
+
+// The two-sided 99% point of Student's t with `dof` degrees of freedom (standard tables, 1 to
+// 30; the normal 2.576 beyond): a slope beyond t_99 standard errors is not noise.
+inline double t_99(int dof) {
+  static const double table[30] = {63.657, 9.925, 5.841, 4.604, 4.032, 3.707, 3.499, 3.355,
+                                   3.250,  3.169, 3.106, 3.055, 3.012, 2.977, 2.947, 2.921,
+                                   2.898,  2.878, 2.861, 2.845, 2.831, 2.819, 2.807, 2.797,
+                                   2.787,  2.779, 2.771, 2.763, 2.756, 2.750};
+  if (dof < 1) return std::numeric_limits<double>::infinity();
+  return dof <= 30 ? table[dof - 1] : 2.576;
+}
+
+// The trend of a series against its index: the least-squares slope and its standard error from
+// the scatter about the line (no error bars needed). Fewer than 3 values: slope 0, error 0.
+struct Trend {
+  double slope = 0, slope_error = 0;
+  int dof = 0;
+  bool significant() const { return dof > 0 && std::abs(slope) > t_99(dof) * slope_error; }
+};
+inline Trend trend_of(const std::vector<double>& v, std::size_t from, std::size_t to) {
+  Trend t;
+  if (to < from + 3) return t;
+  std::vector<double> x, y, e(to - from, 1.0);
+  for (std::size_t k = from; k < to; ++k) {
+    x.push_back(static_cast<double>(k - from));
+    y.push_back(v[k]);
+  }
+  const LineFit f = fit_line(x, y, e);
+  t.slope = f.slope;
+  t.dof = f.dof;
+  t.slope_error = f.slope_error * std::sqrt(f.chi2 / f.dof);  // unit weights: scale by scatter
+  return t;
 }
 
 // The 99% point of chi^2 when each point's error is itself estimated from `blocks` block means

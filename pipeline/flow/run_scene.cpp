@@ -16,6 +16,7 @@
 #include "mesorock/version.h"
 #include "pipeline/flow/checkpoint_io.h"
 #include "pipeline/flow/interrupt.h"
+#include "pipeline/flow/leak_invariant.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/statistics.h"
 #include "sim/particle_io.h"
@@ -236,6 +237,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   const fs::path thermo_path = o.out_dir / "thermo.csv";
   const fs::path thermo_tmp = temporary_path_for(thermo_path);
   std::ofstream thermo;
+  LeakRecord leaks;  // the leak invariant at every thermo row (runs with a solid grid)
   const std::uint64_t thermo_every = scene.output.thermo_every;
   if (thermo_every > 0 && root) {
     thermo.open(thermo_tmp);
@@ -246,7 +248,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
              << scene.path.string()
              << ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per volume\n";
-      thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz\n";
+      thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz"
+             << (scene.model.solid.mask ? ",solid_inside,solid_max_depth" : "") << "\n";
     }
     thermo << std::setprecision(10);
   }
@@ -500,7 +503,12 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           const auto total = st.total();
           thermo << now << "," << time << "," << stage.name << "," << T << "," << st.pressure();
           for (double v : total) thermo << "," << v;
-          thermo << "," << p[0] << "," << p[1] << "," << p[2] << "\n";
+          thermo << "," << p[0] << "," << p[1] << "," << p[2];
+          if (scene.model.solid.mask) {  // the leak invariant (throws past its limit)
+            leaks.check(*sim, now);
+            thermo << "," << leaks.last_inside << "," << leaks.last_depth;
+          }
+          thermo << "\n";
           if (averaged) series.add(T, st);
           write_slab_rows(now, time, stage.name);
           write_injection_rows(now, time, stage.name);
@@ -701,6 +709,10 @@ void run_scene(const Scene& scene, const RunOptions& o) {
                         {"slip_factor", w.slip_factor},
                         {"max_dissipation_factor", w.max_dissipation_factor},
                         {"corrections", sim->wall_corrections()}};
+  }
+  if (scene.model.solid.mask) {
+    leaks.check(*sim, sim->step());
+    summary["solid"] = solid_json(scene.model.solid, leaks);
   }
   if (resume) summary["resumed_from_step"] = resume->state.step;
   if (checkpoint_every > 0) summary["checkpoint_every"] = checkpoint_every;

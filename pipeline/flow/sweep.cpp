@@ -91,12 +91,28 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
   whole.type_mask = o.driven_types;
   const auto axis = static_cast<size_t>(o.axis);
   const std::uint64_t least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
+  std::uint64_t prepare_steps = 0;
+  for (const auto& stage : o.prepare) prepare_steps += stage.first;
   if (o.meter)
     o.meter->add_total(static_cast<double>(sample.particles.size()) *
-                       static_cast<double>(forces.size()) *
-                       static_cast<double>(o.warmup_steps + least_blocks * o.block_steps));
+                       (static_cast<double>(forces.size()) *
+                            static_cast<double>(o.warmup_steps + least_blocks * o.block_steps) +
+                        static_cast<double>(prepare_steps)));
   std::vector<SweepPoint> points;
-  sim::ParticleSet start = sample.particles;
+  sim::ParticleSet prepared = sample.particles;
+  if (!o.prepare.empty()) {  // the scene's early stages, once, without the driving force
+    sim::Model model = sample.model;
+    for (auto& t : model.types) t.body_force = {0, 0, 0};
+    auto sim =
+        sim::make_simulation(model, sample.box, sample.particles, o.prepare.front().second, o.sim);
+    if (o.meter) o.meter->set_phase("preparing: the scene's stages before the last");
+    for (const auto& [steps, dt] : o.prepare) {
+      sim->set_dt(dt);
+      sim->run(steps);
+    }
+    prepared = sim->particles();
+  }
+  sim::ParticleSet start = prepared;
   for (size_t k = 0; k < forces.size(); ++k) {
     SweepPoint p;
     p.force = forces[k];
@@ -108,8 +124,7 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
         model.types[static_cast<size_t>(t)].body_force[axis] = p.force;
       }
     model.seed = sample.model.seed + k;  // independent thermal noise at each point
-    auto sim =
-        sim::make_simulation(model, sample.box, o.chain ? start : sample.particles, o.dt, o.sim);
+    auto sim = sim::make_simulation(model, sample.box, o.chain ? start : prepared, o.dt, o.sim);
     const std::string label = "point " + std::to_string(k + 1) + "/" +
                               std::to_string(forces.size()) + " g = " + fmt(p.force, 3);
     if (o.meter) o.meter->set_phase(label + ": warm-up");
@@ -140,7 +155,14 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
           measure_from = n;
         }
       }
-      if (p.steady && J.size() - measure_from >= static_cast<size_t>(o.measure_blocks)) break;
+      p.leaks.check(*sim, sim->step());  // the leak invariant (throws past its limit)
+      if (p.steady && J.size() - measure_from >= static_cast<size_t>(o.measure_blocks)) {
+        const Trend t = trend_of(J, measure_from, J.size());
+        if (!t.significant()) break;
+        // Still drifting: this measurement does not describe a steady flow. Wait again.
+        p.steady = false;
+        ++p.restarts;
+      }
       if (p.steps + o.block_steps > o.max_steps) break;
       if (o.meter) {
         // Past the least plan (warm-up + 2 windows + measurement): one more block to expect.
@@ -155,6 +177,13 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
     if (!p.steady) measure_from = J.size() - std::min(J.size(), size_t(o.measure_blocks));
     p.flux = mean_of(J, measure_from, J.size());
     p.flux_error = standard_error(J, measure_from, J.size());
+    {
+      const Trend t = trend_of(J, measure_from, J.size());
+      const double blocks = static_cast<double>(J.size() - measure_from);
+      p.drift = p.flux != 0 ? t.slope * blocks / p.flux : 0.0;
+      p.drift_error = p.flux != 0 ? std::abs(t.slope_error * blocks / p.flux) : 0.0;
+      if (p.steady && t.significant()) p.steady = false;  // ran out of steps while drifting
+    }
     p.darcy_velocity = p.flux / o.fluid_density;
     p.darcy_velocity_error = p.flux_error / o.fluid_density;
     p.permeability = o.viscosity * p.darcy_velocity / p.gradient;
@@ -310,6 +339,8 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   o.fluid_density = *density;
   o.forces = c.forces;
   o.dt = scene.stages.back().dt;
+  for (size_t k = 0; k + 1 < scene.stages.size(); ++k)
+    o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
 
   // Viscosity: given, or calibrated (cached) for the driven fluid.
   nlohmann::json viscosity_json;
@@ -400,7 +431,8 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
       << "\n";
     s << "point,force_g,gradient_G,flux_J,flux_J_error,darcy_velocity_q,darcy_velocity_q_error,"
          "k_rc2,k_rc2_error,k_nm2,k_nm2_error,k_mD,k_mD_error,steady,steady_after_steps,steps,"
-         "temperature\n";
+         "temperature,drift,drift_error,restarts"
+      << (model.solid.mask ? ",solid_inside_max,solid_max_depth" : "") << "\n";
     for (size_t k = 0; k < points.size(); ++k) {
       const SweepPoint& p = points[k];
       s << k + 1 << "," << p.force << "," << p.gradient << "," << p.flux << "," << p.flux_error
@@ -412,7 +444,9 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
       else
         s << ",,,";
       s << "," << (p.steady ? 1 : 0) << "," << p.steady_after << "," << p.steps << ","
-        << p.temperature << "\n";
+        << p.temperature << "," << p.drift << "," << p.drift_error << "," << p.restarts;
+      if (model.solid.mask) s << "," << p.leaks.max_inside << "," << p.leaks.max_depth;
+      s << "\n";
     }
     write_text_atomically(c.out_dir / "sweep.csv", s.str());
     std::ostringstream b;
@@ -440,7 +474,14 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
                   {"steady", p.steady},
                   {"steady_after_steps", p.steady_after},
                   {"steps", p.steps},
-                  {"temperature", p.temperature}});
+                  {"temperature", p.temperature},
+                  {"drift", p.drift},
+                  {"drift_error", p.drift_error},
+                  {"drift_note",
+                   "change of J across the measured blocks relative to J (least-squares trend)"},
+                  {"restarts", p.restarts}});
+  if (model.solid.mask)
+    for (size_t k = 0; k < points.size(); ++k) pj[k]["solid_invariant"] = points[k].leaks.json();
   nlohmann::json fits_json = {
       {"darcy",
        {{"model", "q = (k / mu) G"},
@@ -514,8 +555,21 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
         {"rule",
          "steady when the mean flux of the last window blocks agrees with the window before "
          "within the tolerance (relative) or two combined standard errors; then measure_blocks "
-         "blocks give the flux and its standard error"}}},
+         "blocks give the flux and its standard error, unless their least-squares trend is "
+         "beyond Student's t_99 standard errors (a drifting flux: the point waits again)"}}},
       {"dt", o.dt},
+      {"prepared_with",
+       [&] {
+         nlohmann::json j = nlohmann::json::array();
+         for (const auto& [steps, dt] : o.prepare) j.push_back({{"steps", steps}, {"dt", dt}});
+         return j;
+       }()},
+      {"solid", solid_json(model.solid,
+                           [&] {
+                             LeakRecord all;
+                             for (const SweepPoint& p : points) all.merge(p.leaks);
+                             return all;
+                           }())},
       {"points", pj},
       {"fits", fits_json},
       {"units", units_json(units)},

@@ -18,7 +18,9 @@
 // standard errors (noise-dominated flows). Then `measure_blocks` further blocks give J and its
 // error (the standard error of the block means; blocks are meant to be longer than the flow's
 // correlation time). A point that is not steady after `max_steps` is measured on its last
-// blocks and flagged.
+// blocks and flagged. A measurement whose blocks still trend (the least-squares slope of J
+// against the block index beyond Student's t_99 standard errors: a flux still falling, say) is
+// thrown away and the point waits for a steady flow again.
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -28,6 +30,7 @@
 #include <nlohmann/json.hpp>
 
 #include "pipeline/flow/darcy_fit.h"
+#include "pipeline/flow/leak_invariant.h"
 #include "pipeline/scene.h"
 #include "sim/model.h"
 #include "sim/simulation.h"
@@ -54,6 +57,10 @@ struct SweepOptions {
   // Each point starts from the last point's final state (less warm-up); false: all from the
   // sample's initial particles.
   bool chain = true;
+  // Stages run once before the first point (steps, dt): the scene's stages before its last, such
+  // as the relax stage at a small dt that takes a freshly packed sample's overlaps out. A sweep
+  // that started a packed rock at dt = 0.01 and g = 0.16 ran away in 219 steps.
+  std::vector<std::pair<std::uint64_t, double>> prepare;
   sim::SimulationOptions sim;
   ProgressMeter* meter = nullptr;
 };
@@ -69,6 +76,11 @@ struct SweepPoint {
   std::uint64_t steps = 0;         // steps run for this point
   double temperature = 0;          // kinetic temperature at the end (flow included)
   std::vector<double> block_flux;  // J of every block after the warm-up, in order
+  // The trend of J over the measured blocks: its change across them relative to J, with its
+  // error; a significant trend (beyond t_99 standard errors) restarts the measurement.
+  double drift = 0, drift_error = 0;
+  int restarts = 0;  // measurements thrown away for a drifting flux
+  LeakRecord leaks;  // the leak invariant at every block (scenes with a solid grid)
 };
 
 struct SweepSample {
