@@ -33,6 +33,31 @@ const char* flooding_role_name(int role) {
   }
 }
 
+sim::SolidMask solid_mask_of(const VoxelLayout& L, double block_lo, double block_hi) {
+  const voxel::Shape sh = L.codes.shape();
+  sim::SolidMask m;
+  m.dims = {sh.nx, sh.ny, sh.nz};
+  m.voxel = L.voxel_rc;
+  m.origin = L.origin;
+  m.solid.resize(static_cast<std::size_t>(sh.voxels()));
+  const auto* codes = L.codes.data<std::uint8_t>();
+  const int a = L.flow_axis;
+  const auto ka = static_cast<std::size_t>(a);
+  for (std::int64_t z = 0; z < sh.nz; ++z)
+    for (std::int64_t y = 0; y < sh.ny; ++y)
+      for (std::int64_t x = 0; x < sh.nx; ++x) {
+        const std::int64_t c[3] = {x, y, z};
+        const std::size_t i = static_cast<std::size_t>((z * sh.ny + y) * sh.nx + x);
+        const std::uint8_t code = codes[i];
+        // The voxel's centre along the flow axis decides whether it lies in the block.
+        const double along = L.origin[ka] + (static_cast<double>(c[a]) + 0.5) * L.voxel_rc[ka];
+        const bool in_block = along >= block_lo && along < block_hi;
+        m.solid[i] =
+            code == kRoleOrganicWall || code == kRoleInorganicWall || (code == 0 && in_block);
+      }
+  return m;
+}
+
 std::int64_t drop_unconnected_pores(voxel::Volume& labels, int axis_zyx, int connectivity,
                                     std::int64_t* clusters_out, std::int64_t* spanning_out) {
   const voxel::PoreRuns runs = voxel::find_pore_runs(labels);

@@ -88,6 +88,12 @@ void keep_spanning_pores_and_count(voxel::Volume& labels, int flow_axis, bool co
                                    int connectivity, const std::string& what,
                                    const std::string& faces, VoxelLayout& L);
 
+// The solid of a layout as the solver's voxel mask (sim/solid_grid.h, written to solid.h5 beside
+// the particles): the wall voxels, and the empty voxels (code 0) whose position along the flow
+// axis lies in [block_lo, block_hi) rc: the grains' interiors. Empty room outside the block (behind
+// a slab) stays pore. Same voxels, origin and edges as L.codes.
+sim::SolidMask solid_mask_of(const VoxelLayout& L, double block_lo, double block_hi);
+
 // `labels`: uint8 phase codes (voxel/segment.h) of the block, voxel edges in options.voxel_rc.
 // Taken by value (std::move it in), so it is freed as soon as it is copied into the extended
 // volume. Throws ConfigError for bad options or when no pore cluster joins the faces.

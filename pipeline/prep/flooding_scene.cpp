@@ -86,6 +86,9 @@ void write_pairs_and_walls(std::ostream& s, const Params& p, AOf a_of,
       << "types = " << list(walls) << "\n"
       << "wall_density = " << num(p.wall_density) << "  # the packed walls' particle density\n\n";
   }
+  if (!p.solid_file.empty())
+    s << "[solid]  # the solid's voxels: fluid that drifts into them is sent back, and counted\n"
+      << "file = " << quoted(p.solid_file) << "\n\n";
 }
 
 std::string flooding_scene_toml(const packing::FloodingLayout& L, const FloodingSceneParams& p) {

@@ -19,6 +19,7 @@ struct FloodingSceneParams {
   std::string name = "flooding";
   std::uint64_t seed = 1;
   std::string particle_file = "particles.h5";  // relative to the scene's folder
+  std::string solid_file = "solid.h5";         // the solid's voxels ([solid]); "" = none
   std::vector<std::string> type_names;         // as in the particle file
   // Pair sets (mDPD): fluid-fluid, fluid-organic wall, fluid-inorganic wall, and the wall set
   // (wall-wall, slab-slab, slab-wall pairs; frozen or rigid pairs never move each other).

@@ -4,6 +4,7 @@
 // permeability sweeps (packing/permeability.h, --layout permeability).
 //
 //   DIR/particles.h5 + particles.xmf   the particle set (docs/scene.md layout), open in ParaView
+//   DIR/solid.h5                        the solid's voxels (the solver keeps fluid out of them)
 //   DIR/scene.toml                      `rockflow run DIR/scene.toml --out OUT` runs it as is
 //   DIR/tiles.h5                        the tile sets used (a tile database)
 //   DIR/run.json                        provenance, parameters, counts, timings, memory
@@ -25,7 +26,10 @@
 #include "pipeline/prep/common.h"
 #include "pipeline/prep/flooding_scene.h"
 #include "pipeline/prep/packing_common.h"
+#include "pipeline/prep/stokes_regime.h"
 #include "sim/particle_io.h"
+#include "sim/solid_grid.h"
+#include "voxel/local_thickness.h"
 #include "voxel/roi.h"
 #include "voxel/segment.h"
 #include "voxel/staged_output.h"
@@ -35,6 +39,41 @@ namespace fs = std::filesystem;
 
 namespace mesorock::pipeline::prep {
 namespace {
+
+// The block's pore sizes in voxels (along x): local thickness by pore volume.
+struct PoreSizes {
+  bool available = false;
+  double d10_voxels = 0, median_voxels = 0, mean_voxels = 0, max_voxels = 0;
+};
+
+PoreSizes pore_sizes_of(const voxel::Volume& labels, Progress& progress, const std::string& name) {
+  PoreSizes p;
+  try {
+    const voxel::Volume thickness = progress.stage("pore sizes (local thickness)", labels.voxels(),
+                                                   [&] { return voxel::local_thickness(labels); });
+    const voxel::SizeDistribution d = voxel::size_distribution(thickness, labels);
+    if (d.pore_voxels == 0) return p;
+    const double unit = labels.spacing().dx;  // thickness unit per voxel along x
+    // The 10% point of the pore volume, interpolated in its bin like the median.
+    double below = 0, d10 = d.edges.back();
+    for (std::size_t b = 0; b < d.volume_fraction.size(); ++b) {
+      if (below + d.volume_fraction[b] >= 0.1) {
+        const double f = d.volume_fraction[b] > 0 ? (0.1 - below) / d.volume_fraction[b] : 0;
+        d10 = d.edges[b] + f * (d.edges[b + 1] - d.edges[b]);
+        break;
+      }
+      below += d.volume_fraction[b];
+    }
+    p.available = true;
+    p.d10_voxels = d10 / unit;
+    p.median_voxels = d.median / unit;
+    p.mean_voxels = d.mean / unit;
+    p.max_voxels = d.max / unit;
+  } catch (const ConfigError& e) {
+    progress.warn(name + ": pore sizes: " + e.what());
+  }
+  return p;
+}
 
 struct RunArgs {
   LabelInputArgs input;
@@ -56,7 +95,9 @@ struct RunArgs {
   TileGenerationArgs generation;
   // Pair sets (the wall tiles are equilibrated with the wall-wall one, the fluid tiles with the
   // fluid-fluid one).
-  double a_fluid = -40, a_organic = -30, a_inorganic = -40, a_wall = -40;
+  // NaN: the layout's default (flooding: -30 organic, -40 inorganic, the wetting of the contact
+  // angle case; permeability: kNoSlipWallA for both, the no-slip plane on the voxel faces).
+  double a_fluid = -40, a_organic = std::nan(""), a_inorganic = std::nan(""), a_wall = -40;
   double B = 25, gamma = 4.5, rd = 0.75, kBT = 1.0;
   std::string density_kernel = "warren";
   double back_pressure = -1, pressure_drop = 50;
@@ -151,10 +192,12 @@ voxel::Volume labels_of(const RunArgs& a, Progress& progress, nlohmann::json* re
 int run_run(const RunArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   // Everything the user typed is checked before the load.
-  if ((a.nm_per_rc > 0) == (a.rc_per_voxel > 0))
+  if (a.nm_per_rc > 0 && a.rc_per_voxel > 0)
     throw ConfigError(
-        "run: the length scale is explicit: give exactly one of --nm-per-rc X (physical "
-        "nanopores) or --rc-per-voxel Y");
+        "run: the length scale is explicit: give one of --nm-per-rc X (physical nanopores) or "
+        "--rc-per-voxel Y, or neither (the rc per voxel is then chosen from the pore sizes)");
+  if (a.nm_per_rc < 0 || a.rc_per_voxel < 0)
+    throw ConfigError("run: --nm-per-rc and --rc-per-voxel must be positive");
   voxel::LengthScale scale;
   scale.nm_per_rc = a.nm_per_rc;
   scale.rc_per_voxel = a.rc_per_voxel;
@@ -172,6 +215,12 @@ int run_run(const RunArgs& a) {
   if (!(a.dt > 0) || a.dt > 0.1) throw ConfigError("run: --dt must be in (0, 0.1]");
   if (a.pressure_drop < 0) throw ConfigError("run: --pressure-drop must be >= 0");
   const bool permeability = a.layout == "permeability";
+  const double a_organic =
+      std::isnan(a.a_organic) ? (permeability ? kNoSlipWallA : -30.0) : a.a_organic;
+  const double a_inorganic =
+      std::isnan(a.a_inorganic) ? (permeability ? kNoSlipWallA : -40.0) : a.a_inorganic;
+  if (!std::isfinite(a_organic) || !std::isfinite(a_inorganic))
+    throw ConfigError("run: --a-organic and --a-inorganic must be finite");
   if (permeability) {
     const std::string o = first_given(a.flooding_only);
     if (!o.empty()) throw ConfigError("run: " + o + " belongs to --layout flooding");
@@ -201,12 +250,26 @@ int run_run(const RunArgs& a) {
                             [&] { return voxel::crop(labels, *crop); });
   }
   const voxel::Shape shape = labels.shape();
+  // Pore sizes (local thickness by pore volume) and, without a length scale, the rc per voxel
+  // that resolves them (pipeline/prep/resolution.h).
+  const PoreSizes sizes = pore_sizes_of(labels, progress, name);
+  if (a.nm_per_rc == 0 && a.rc_per_voxel == 0) {
+    scale.rc_per_voxel = auto_rc_per_voxel(sizes.median_voxels);
+    std::ostringstream s;
+    s.precision(3);
+    s << "no length scale given: " << scale.rc_per_voxel
+      << " rc per voxel, so the median pore diameter (" << sizes.median_voxels << " voxels) is "
+      << sizes.median_voxels * scale.rc_per_voxel << " rc (at least " << kResolvedPoreDiameterRc
+      << " rc: docs/accuracy.md, resolution on real rock)";
+    progress.note(s.str());
+  }
+  const double rc_per_voxel = scale.rc_per_voxel;
   const std::array<double, 3> voxel_zyx =
       about_file(name, [&] { return voxel::voxel_size_rc(scale, labels.spacing()); });
   const std::array<double, 3> voxel_rc{voxel_zyx[2], voxel_zyx[1], voxel_zyx[0]};
   double nm_per_rc = a.nm_per_rc;
   if (nm_per_rc == 0 && labels.spacing().known())
-    nm_per_rc = voxel::nanometres_per(labels.spacing().unit) * labels.spacing().dx / a.rc_per_voxel;
+    nm_per_rc = voxel::nanometres_per(labels.spacing().unit) * labels.spacing().dx / rc_per_voxel;
   {
     std::ostringstream s;
     s.precision(4);
@@ -217,7 +280,6 @@ int run_run(const RunArgs& a) {
         << (a.no_mirror ? "" : ", mirrored along the flow axis");
     progress.note(s.str());
   }
-
   // Layout: connected pores, wall sweep, and the reservoirs and slabs (flooding) or the mirror
   // image and periodic box (permeability).
   packing::FloodingOptions fo;
@@ -271,6 +333,33 @@ int run_run(const RunArgs& a) {
                                     std::to_string(rv[packing::kRoleBlockFluid]) +
                                     " fluid voxels in the box)"
                               : std::string()));
+
+  if (sizes.available) {
+    const double rc = voxel_rc[0];  // rc per voxel edge (local thickness is in voxels along x)
+    std::ostringstream s;
+    s.precision(3);
+    s << "pore sizes (local thickness by pore volume): d10 " << sizes.d10_voxels * rc << ", median "
+      << sizes.median_voxels * rc << ", mean " << sizes.mean_voxels * rc << ", max "
+      << sizes.max_voxels * rc << " rc";
+    progress.note(s.str());
+    // Only a permeability measurement has a resolution to meet (docs/accuracy.md).
+    if (permeability && sizes.median_voxels * rc < kResolvedPoreDiameterRc) {
+      std::ostringstream w;
+      w.precision(3);
+      w << "the pores that carry the flow are " << sizes.median_voxels * rc
+        << " rc across (median local thickness), below the " << kResolvedPoreDiameterRc
+        << " rc at which the resolution study keeps the permeability within 10% of a continuum "
+           "solution (docs/accuracy.md): use --rc-per-voxel "
+        << auto_rc_per_voxel(sizes.median_voxels) << " or more";
+      progress.warn(w.str());
+    }
+    record["pore_sizes"] = {{"method", "local thickness, by pore volume, of the block"},
+                            {"d10_rc", sizes.d10_voxels * rc},
+                            {"median_rc", sizes.median_voxels * rc},
+                            {"mean_rc", sizes.mean_voxels * rc},
+                            {"max_rc", sizes.max_voxels * rc},
+                            {"resolved_diameter_rc", kResolvedPoreDiameterRc}};
+  }
 
   // Tiles.
   tiledb::TileKey wall_key;
@@ -414,6 +503,12 @@ int run_run(const RunArgs& a) {
       "pack " + std::to_string(layout.codes.voxels()) + " voxels", layout.codes.voxels(),
       [&] { return packing::pack_voxels(layout.codes, roles, po, tee); });
   const std::int64_t ext_voxels = layout.codes.voxels();
+  // The solid's voxels for the solver (grains stay dry whatever the wall particles do) and for
+  // a continuum reference on the identical geometry (rockflow lbm).
+  sim::SolidMask solid = permeability
+                             ? packing::solid_mask_of(layout, -1e300, 1e300)
+                             : packing::solid_mask_of(layout, flooding.block_lo, flooding.block_hi);
+  solid.nm_per_rc = nm_per_rc;
   layout.codes = voxel::Volume();
 
   std::vector<std::int64_t> per_type(types.size(), 0);
@@ -439,8 +534,8 @@ int run_run(const RunArgs& a) {
   sp.seed = a.seed;
   sp.type_names = types;
   sp.a_fluid = a.a_fluid;
-  sp.a_organic = a.a_organic;
-  sp.a_inorganic = a.a_inorganic;
+  sp.a_organic = a_organic;
+  sp.a_inorganic = a_inorganic;
   sp.a_wall = a.a_wall;
   sp.B = a.B;
   sp.gamma = a.gamma;
@@ -497,8 +592,8 @@ int run_run(const RunArgs& a) {
       {"density_kernel", a.density_kernel},
       {"pairs",
        {{"a_fluid", a.a_fluid},
-        {"a_organic", a.a_organic},
-        {"a_inorganic", a.a_inorganic},
+        {"a_organic", a_organic},
+        {"a_inorganic", a_inorganic},
         {"a_wall", a.a_wall},
         {"B", a.B},
         {"gamma", a.gamma},
@@ -574,6 +669,14 @@ int run_run(const RunArgs& a) {
     sim::write_particle_xdmf(staged.stage("particles.xmf"),
                              staged.final_path("particles.xmf").parent_path() / "particles.h5",
                              static_cast<std::size_t>(stats.particles));
+    sim::write_solid_file(staged.stage("solid.h5"), solid, "rockprep run",
+                          nlohmann::json{{"layout", a.layout},
+                                         {"input", record["input"]},
+                                         {"crop", a.crop},
+                                         {"flow_axis", a.flow_axis},
+                                         {"mirrored", permeability && !a.no_mirror},
+                                         {"solid", "wall voxels and the empty voxels of the block"}}
+                              .dump());
     mesorock::write_text_atomically(
         staged.stage("scene.toml"),
         permeability ? permeability_scene_toml(periodic, sp) : flooding_scene_toml(flooding, sp));
@@ -590,10 +693,11 @@ int run_run(const RunArgs& a) {
                         {"particle_bytes", stats.particles * packing::kParticleBytes},
                         {"peak_pack_buffer_bytes", stats.peak_buffer_bytes}};
     record["seconds"] = {{"pack", stats.seconds}, {"total", seconds}};
-    record["outputs"] = a.lammps ? nlohmann::json{"particles.h5", "particles.xmf", "particles.data",
-                                                  "scene.toml",   "tiles.h5",      "run.json"}
-                                 : nlohmann::json{"particles.h5", "particles.xmf", "scene.toml",
-                                                  "tiles.h5", "run.json"};
+    record["outputs"] =
+        a.lammps ? nlohmann::json{"particles.h5", "particles.xmf", "particles.data", "solid.h5",
+                                  "scene.toml",   "tiles.h5",      "run.json"}
+                 : nlohmann::json{"particles.h5", "particles.xmf", "solid.h5",
+                                  "scene.toml",   "tiles.h5",      "run.json"};
     record["warnings"] = progress.warnings();
     write_json(staged.stage("run.json"), record, (out / "run.json").string());
     staged.commit();
@@ -640,7 +744,9 @@ Command add_run_command(CLI::App& rockprep) {
                   "Phases of the classes, darkest first (default pore,organic,inorganic for 3)");
   app->add_option("--crop", a->crop, "Voxel box Z0:Z1,Y0:Y1,X0:X1 of the block");
   app->add_option("--nm-per-rc", a->nm_per_rc, "Length scale: rc in nm (needs a physical spacing)");
-  app->add_option("--rc-per-voxel", a->rc_per_voxel, "Length scale: rc per voxel edge along x");
+  app->add_option("--rc-per-voxel", a->rc_per_voxel,
+                  "Length scale: rc per voxel edge along x (without it or --nm-per-rc: chosen so "
+                  "the median pore diameter is resolved, docs/accuracy.md)");
   app->add_option("--flow-axis", a->flow_axis, "x (default), y or z")
       ->check(CLI::IsMember({"x", "y", "z"}));
   app->add_option("--layout", a->layout,
@@ -686,8 +792,11 @@ Command add_run_command(CLI::App& rockprep) {
                   "build them, saved in DIR/tiles.h5)");
   a->generation.add_to(app, "tile-");
   app->add_option("--a-fluid", a->a_fluid, "Fluid-fluid (and fluid-slab) A (default -40)");
-  app->add_option("--a-organic", a->a_organic, "Fluid-organic wall A (default -30)");
-  app->add_option("--a-inorganic", a->a_inorganic, "Fluid-inorganic wall A (default -40)");
+  app->add_option("--a-organic", a->a_organic,
+                  "Fluid-organic wall A (default -30; permeability layout -18: the no-slip plane "
+                  "on the voxel faces, docs/walls.md)");
+  app->add_option("--a-inorganic", a->a_inorganic,
+                  "Fluid-inorganic wall A (default -40; permeability layout -18)");
   app->add_option("--a-wall", a->a_wall,
                   "Wall-wall and slab A: the wall tiles are equilibrated with it (default -40)");
   app->add_option("--density-kernel", a->density_kernel, "warren (default) or lucy")

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "pipeline/prep/stokes_regime.h"
 #include "pipeline/scene.h"
 #include "sim/particle_io.h"
 #include "support/test_support.h"
@@ -176,8 +177,8 @@ TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   CommandResult r = run_command(
       cd + rockprep() + " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --tiles " +
           shell_quote(small_db().string()) +
-          " --body-force 0.03 --relax-steps 10 --flow-steps 20 --region-every 10 --seed 5"
-          " --out perm",
+          " --body-force 0.03 --relax-steps 10 --flow-steps 20 --region-every 10 --thermo-every 10"
+          " --seed 5 --out perm",
       tmp.path());
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("in the periodic box, mirrored"), std::string::npos) << r.out;
@@ -274,11 +275,45 @@ TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   }
   EXPECT_TRUE(found_fluid_role);
 
-  // rockflow runs it as is, and rockflow sweep drives the fluid along x at the recorded density.
+  // solid.h5: the box's voxels, solid exactly where the (mirrored) labels are not pore, or where
+  // a dropped pore cluster became solid; the scene hands it to the solver.
+  ASSERT_TRUE(scene.model.solid.mask);
+  const sim::SolidMask solid = sim::read_solid_file(tmp / "perm" / "solid.h5");
+  EXPECT_EQ(solid.dims, (std::array<std::int64_t, 3>{40, 16, 12}));
+  EXPECT_EQ(solid.voxel, (std::array<double, 3>{0.5, 0.5, 0.5}));
+  {
+    const std::uint8_t* label = labels.data<std::uint8_t>();
+    std::int64_t solid_where_pore = 0, pore_where_solid = 0, pore_box = 0;
+    for (std::int64_t z = 0; z < 12; ++z)
+      for (std::int64_t y = 0; y < 16; ++y)
+        for (std::int64_t x = 0; x < 40; ++x) {
+          const std::int64_t bx = x < 20 ? x : 39 - x;
+          const std::uint8_t code = label[(z * 16 + y) * 20 + bx];
+          const bool pore = code == static_cast<std::uint8_t>(voxel::Phase::kPore) ||
+                            code == static_cast<std::uint8_t>(voxel::Phase::kOrganicPore);
+          const bool s = solid.is_solid(x, y, z);
+          pore_where_solid += !pore && !s;
+          solid_where_pore += pore && s;
+          pore_box += !s;
+        }
+    EXPECT_EQ(pore_where_solid, 0);
+    // Only the dropped (non-spanning) pore voxels may be solid, twice each (mirrored).
+    EXPECT_EQ(solid_where_pore, 2 * run["voxels"]["pore_dropped"].get<std::int64_t>());
+    EXPECT_EQ(pore_box, 2 * run["voxels"]["pore"].get<std::int64_t>());
+  }
+
+  // rockflow runs it as is (no fluid particle ever inside the solid: summary.json's invariant),
+  // and rockflow sweep drives the fluid along x at the recorded density.
   r = run_command(
       cd + shell_quote(MESOROCK_ROCKFLOW) + " run perm/scene.toml --out flow --threads 1",
       tmp.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto summary =
+      nlohmann::json::parse(mesorock::test::read_file(tmp / "flow" / "summary.json"));
+  EXPECT_GT(summary["solid"]["invariant"]["checks"].get<int>(), 1);
+  EXPECT_EQ(summary["solid"]["invariant"]["inside_max"].get<int>(), 0);
+  EXPECT_NE(mesorock::test::read_file(tmp / "flow" / "thermo.csv").find("solid_inside"),
+            std::string::npos);
   r = run_command(cd + shell_quote(MESOROCK_ROCKFLOW) +
                       " sweep perm/scene.toml --out sweep --forces 0.02 --warmup 20"
                       " --block-steps 10 --window 2 --measure-blocks 2 --max-steps 200"
@@ -310,6 +345,38 @@ TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   EXPECT_EQ(placed_y.misplaced_wall, 0);
 }
 
+// Without a length scale, rockprep run reports the pore sizes and picks the rc per voxel that
+// resolves them (pipeline/prep/stokes_regime.h); the permeability layout's walls take the no-slip
+// fluid-wall A unless one is given.
+TEST(PackingCli, RunPicksTheResolutionFromThePoreSizes) {
+  TempDir tmp;
+  make_stack(tmp);
+  const std::string cd = "cd " + shell_quote(tmp.path().string()) + " && ";
+  // The tiles of the chosen voxel edge are built here: small ones, fast.
+  CommandResult r = run_command(cd + rockprep() +
+                                    " run syn/truth.mhd --layout permeability --tile-variants 100"
+                                    " --tile-box-edge 4 --tile-relax-steps 100"
+                                    " --tile-equilibrate-steps 1000 --tile-decorrelate-steps 100"
+                                    " --threads 1 --relax-steps 10 --flow-steps 10 --out auto",
+                                tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("no length scale given"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("pore sizes (local thickness by pore volume)"), std::string::npos) << r.out;
+  const auto run = nlohmann::json::parse(mesorock::test::read_file(tmp / "auto" / "run.json"));
+  const double median = run["pore_sizes"]["median_rc"].get<double>();
+  const double rpv = run["parameters"]["scale"]["rc_per_voxel"].get<double>();
+  EXPECT_DOUBLE_EQ(rpv, pipeline::prep::auto_rc_per_voxel(median / rpv));
+  EXPECT_TRUE(median >= pipeline::prep::kResolvedPoreDiameterRc - 1e-9 ||
+              rpv == pipeline::prep::kMaxAutoRcPerVoxel)
+      << median << " rc at " << rpv << " rc per voxel";
+  EXPECT_DOUBLE_EQ(run["parameters"]["pairs"]["a_inorganic"].get<double>(),
+                   pipeline::prep::kNoSlipWallA);
+  const pipeline::Scene scene = pipeline::load_scene(tmp / "auto" / "scene.toml");
+  const int fluid = scene.model.type_index("fluid");
+  for (int t = 0; t < scene.model.ntypes(); ++t)
+    if (t != fluid) EXPECT_DOUBLE_EQ(scene.model.pair(fluid, t).A, pipeline::prep::kNoSlipWallA);
+}
+
 TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
   TempDir tmp;
   make_stack(tmp);
@@ -324,8 +391,8 @@ TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
     std::string args, message;
   };
   const std::vector<Case> cases = {
-      {"run syn/truth.mhd --out o", "length scale"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --nm-per-rc 2 --out o", "length scale"},
+      {"run syn/truth.mhd --rc-per-voxel -1 --out o", "must be positive"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --max-particles 100 --tiles " +
            shell_quote(small_db().string()) + " --out o",
        "max-particles"},
