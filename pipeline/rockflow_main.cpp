@@ -1,15 +1,23 @@
 // rockflow: run a scene, validate the physics, benchmark the solver.
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
 #include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <vector>
 
+#include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/bench.h"
 #include "pipeline/flow/interrupt.h"
+#include "pipeline/flow/lbm_stokes.h"
 #include "pipeline/flow/progress.h"
 #include "pipeline/flow/run_scene.h"
 #include "pipeline/flow/study.h"
@@ -17,6 +25,7 @@
 #include "pipeline/flow/validation.h"
 #include "pipeline/scene.h"
 #include "sim/domain/communicator.h"
+#include "sim/solid_grid.h"
 
 namespace mp = mesorock::pipeline;
 namespace ms = mesorock::sim;
@@ -35,6 +44,65 @@ void require_backend(ms::BackendKind b) {
   const std::string why = ms::cuda_unavailable_reason();
   if (!why.empty()) throw mesorock::DeviceError(why);
 }
+
+// The progress line of `rockflow lbm` on stderr: the step, the relative change of the Darcy
+// velocity against the tolerance, and a guess at the time left from the rate at which the change
+// has been falling over the last few checks. On a terminal one line is redrawn; in a log, a line
+// every 10 s.
+class LbmProgressLine {
+ public:
+  LbmProgressLine(double tolerance, std::int64_t max_steps)
+      : tolerance_(tolerance),
+        max_steps_(max_steps),
+        tty_(isatty(STDERR_FILENO)),
+        start_(std::chrono::steady_clock::now()),
+        last_(start_) {}
+
+  void update(std::int64_t step, double change) {
+    const auto now = std::chrono::steady_clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    checks_.push_back({step, std::log(std::max(change, 1e-300))});
+    if (std::chrono::duration<double>(now - last_).count() < (tty_ ? 0.2 : 10)) return;
+    last_ = now;
+    // Steps left: the change falls about exponentially; extrapolate over the last 5 checks.
+    std::int64_t left = max_steps_ - step;
+    if (checks_.size() > 5) {
+      const Check& old = checks_[checks_.size() - 6];
+      const double rate =
+          (old.log_change - checks_.back().log_change) / static_cast<double>(step - old.step);
+      if (rate > 0)
+        left = std::min<std::int64_t>(
+            left, static_cast<std::int64_t>(
+                      std::max(0.0, (checks_.back().log_change - std::log(tolerance_)) / rate)));
+    }
+    std::ostringstream line;
+    line << "lbm: step " << step << ", change " << std::setprecision(2) << change << " (stop at "
+         << tolerance_ << "), " << static_cast<int>(elapsed) << " s, ETA ~"
+         << static_cast<int>(elapsed / static_cast<double>(step) * static_cast<double>(left))
+         << " s";
+    if (tty_) {
+      std::cerr << "\r" << line.str() << "\033[K" << std::flush;
+      drawn_ = true;
+    } else {
+      std::cerr << line.str() << "\n" << std::flush;
+    }
+  }
+  void finish() {
+    if (drawn_) std::cerr << "\r\033[K" << std::flush;
+    drawn_ = false;
+  }
+
+ private:
+  struct Check {
+    std::int64_t step;
+    double log_change;
+  };
+  double tolerance_;
+  std::int64_t max_steps_;
+  bool tty_, drawn_ = false;
+  std::chrono::steady_clock::time_point start_, last_;
+  std::vector<Check> checks_;
+};
 
 }  // namespace
 
@@ -167,6 +235,37 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1, 4))
         ->capture_default_str();
 
+    auto* lbm = app.add_subcommand(
+        "lbm", "Stokes permeability of a solid mask by lattice Boltzmann (D3Q19 TRT; docs/lbm.md)");
+    mp::LbmOptions lbm_options;
+    std::string lbm_mask, lbm_out = "out", lbm_axis = "x";
+    lbm->add_option("solid", lbm_mask, "the solid mask (solid.h5, sim/solid_grid.h)")->required();
+    lbm->add_option("--out", lbm_out, "output folder (lbm.json)")->capture_default_str();
+    lbm->add_option("--axis", lbm_axis, "flow axis x|y|z")
+        ->check(CLI::IsMember({"x", "y", "z"}))
+        ->capture_default_str();
+    lbm->add_option("--tau", lbm_options.tau, "relaxation time, > 1/2 (k does not depend on it)")
+        ->capture_default_str();
+    lbm->add_option("--force", lbm_options.force, "body force per voxel, lattice units")
+        ->capture_default_str();
+    lbm->add_option("--tolerance", lbm_options.tolerance,
+                    "stop when the Darcy velocity changes less than this (relative) per check")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    lbm->add_option("--check-every", lbm_options.check_every, "steps between checks")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    lbm->add_option("--max-steps", lbm_options.max_steps, "most steps")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    lbm->add_option("--threads", threads, "CPU threads (0: all cores)")
+        ->check(CLI::NonNegativeNumber);
+    int lbm_refine = 2;
+    lbm->add_option("--refine", lbm_refine,
+                    "lattice nodes per voxel edge (1 to 8; k converges as it grows, docs/lbm.md)")
+        ->check(CLI::Range(1, 8))
+        ->capture_default_str();
+
     const mp::StudyCommand study = mp::add_study_command(app, backend, threads);
 
     try {
@@ -270,6 +369,52 @@ int main(int argc, char** argv) {
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (root) std::cout << (json ? mp::format_case_json(r) + "\n" : mp::format_case_text(r));
       return r.pass() ? mp::kExitOk : mp::kExitFailed;
+    }
+
+    if (*lbm) {
+      if (!std::filesystem::exists(lbm_mask)) throw mesorock::IoError(lbm_mask + ": no such file");
+      const ms::SolidMask image = ms::read_solid_file(lbm_mask);
+      const ms::SolidMask mask = mp::refine_mask(image, lbm_refine);
+      lbm_options.axis = lbm_axis[0] - 'x';
+      lbm_options.threads = threads;
+      LbmProgressLine line(lbm_options.tolerance, lbm_options.max_steps);
+      lbm_options.progress = [&line](std::int64_t step, double change) {
+        line.update(step, change);
+      };
+      mp::LbmResult r;
+      try {
+        r = mp::lbm_permeability(mask, lbm_options);
+      } catch (...) {
+        line.finish();
+        throw;
+      }
+      line.finish();
+      const std::filesystem::path out(lbm_out);
+      std::error_code ec;
+      std::filesystem::create_directories(out, ec);
+      if (ec) throw mesorock::IoError(lbm_out + ": cannot create output folder: " + ec.message());
+      r.k_voxel2 /= lbm_refine * lbm_refine;  // in the image's voxels, not the lattice's
+      nlohmann::json report = mp::lbm_report_json(lbm_mask, image, lbm_options, r);
+      report["options"]["refine"] = lbm_refine;
+      mesorock::write_text_atomically(out / "lbm.json", report.dump(2) + "\n");
+      if (!r.percolates) {
+        std::cout << "permeability (LBM): 0: the pore space does not percolate along " << lbm_axis
+                  << " (porosity " << r.porosity << ")\n";
+      } else {
+        const auto& k = report["result"]["permeability"];
+        std::cout << "permeability (LBM): " << r.k_voxel2 << " voxel^2 = " << r.k_rc2 << " rc^2";
+        if (k.contains("mD"))
+          std::cout << " = " << k["nm2"].get<double>() << " nm^2 = " << k["mD"].get<double>()
+                    << " mD";
+        std::cout << " (porosity " << r.porosity << ", " << r.steps << " steps, "
+                  << (r.converged ? "converged" : "NOT converged") << ", " << r.seconds << " s)\n";
+        if (!r.converged)
+          std::cerr << "rockflow: warning: lbm: the Darcy velocity still changed by "
+                    << r.history.back().rel_change << " per check after " << r.steps
+                    << " steps (tolerance " << lbm_options.tolerance << "): raise --max-steps\n";
+      }
+      std::cout << "outputs: " << (out / "lbm.json").string() << "\n";
+      return mp::kExitOk;
     }
 
     if (*study.app) {
