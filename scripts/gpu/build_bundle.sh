@@ -37,6 +37,18 @@ for spec in ${VARIANTS:-}; do
   cmake --build "build-gpu-$name" --parallel "$(nproc)" --target rockflow
   cp "build-gpu-$name/bin/rockflow" ".carry/gpu/bin/rockflow-$name"
 done
+# ROCKPREP=1: rockprep too (the main build's, which has OpenVDB), and the libraries of its chain
+# that the GPU machine lacks, xz-packed (libopenvdb alone is 57 MB; 5 MB packed): real-rock
+# crops are then packed there in seconds instead of carrying their particle files
+# (scripts/gpu/rock_run.sh).
+if [ -n "${ROCKPREP:-}" ]; then
+  rp=${ROCKPREP_BUILD:-build}/bin/rockprep
+  cp "$rp" .carry/gpu/bin/
+  libs=$(ldd "$rp" | awk '/openvdb|tbb|blosc|Imath|boost|log4cplus|tiff|jbig|webp|Lerc|deflate|jpeg|snappy|tomlplusplus/ {print $3}')
+  rm -rf /tmp/rockprep-libs && mkdir -p /tmp/rockprep-libs
+  for lib in $libs; do cp -L "$lib" /tmp/rockprep-libs/; done
+  tar cJf .carry/gpu/rockprep-libs.tar.xz -C /tmp/rockprep-libs .
+fi
 strip .carry/gpu/bin/*  # device code stays; host symbols are not needed there (64 MiB limit)
 { git rev-parse --short=12 HEAD; git diff --quiet HEAD || echo "+uncommitted changes"; } > .carry/gpu/COMMIT
 du -sh .carry/gpu
