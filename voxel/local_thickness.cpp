@@ -7,9 +7,11 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "mesorock/errors.h"
 #include "voxel/pore_analysis.h"
+#include "voxel/segment.h"
 
 namespace mesorock::voxel {
 namespace {
@@ -308,6 +310,39 @@ SizeDistribution size_distribution(const Volume& thickness, const Volume& labels
     below += f;
   }
   return dist;
+}
+
+double critical_pore_diameter(const Volume& labels, int axis_zyx) {
+  if (axis_zyx < 0 || axis_zyx > 2)
+    throw ConfigError("critical pore diameter: axis must be 0 to 2");
+  const Volume sq = squared_pore_distance(labels);
+  const float* d2 = sq.data<float>();
+  const std::uint8_t* codes = labels.data<std::uint8_t>();
+  const std::size_t n = static_cast<std::size_t>(labels.voxels());
+  // The candidate diameters: the distinct 2 x distance values of the pore voxels.
+  std::vector<float> values;
+  for (std::size_t i = 0; i < n; ++i)
+    if (is_pore_code(codes[i]) && std::isfinite(d2[i])) values.push_back(d2[i]);
+  std::sort(values.begin(), values.end());
+  values.erase(std::unique(values.begin(), values.end()), values.end());
+  Volume open(labels.shape(), DType::kUInt8, labels.spacing());
+  std::uint8_t* o = open.data<std::uint8_t>();
+  auto passes = [&](float min_d2) {
+    for (std::size_t i = 0; i < n; ++i)
+      o[i] = static_cast<std::uint8_t>(
+          is_pore_code(codes[i]) && d2[i] >= min_d2 ? Phase::kPore : Phase::kInorganic);
+    for (const Cluster& c : find_pore_clusters(find_pore_runs(open)))
+      if (c.spans(axis_zyx)) return true;
+    return false;
+  };
+  if (values.empty() || !passes(values.front())) return 0.0;
+  // passes() is monotone in the threshold: the largest value that still passes.
+  std::size_t lo = 0, hi = values.size();  // values[lo] passes; values[hi] (if any) does not
+  while (hi - lo > 1) {
+    const std::size_t mid = lo + (hi - lo) / 2;
+    (passes(values[mid]) ? lo : hi) = mid;
+  }
+  return 2.0 * std::sqrt(static_cast<double>(values[lo]));
 }
 
 }  // namespace mesorock::voxel

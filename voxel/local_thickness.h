@@ -22,6 +22,16 @@ namespace mesorock::voxel {
 // parallel. Memory: 4 bytes per voxel.
 Volume squared_pore_distance(const Volume& labels);
 
+// The critical pore diameter along volume axis `axis_zyx` (0 z, 1 y, 2 x): the largest sphere
+// that can pass through the sample between its two faces normal to that axis, the diameter that
+// controls permeability (Katz & Thompson 1986; what mercury intrusion measures). A sphere of
+// diameter d fits with its centre on a pore voxel whose distance (squared_pore_distance) is at
+// least d / 2; d passes when those voxels hold a 6-connected cluster touching both faces. The
+// largest such d among the voxels' own 2 x distance values, by bisection; in the spacing's unit
+// along x (an anisotropic spacing mixes units: the distance is Euclidean in the spacing's unit).
+// 0 when no pore cluster spans the axis. Memory: the distance volume and one label volume.
+double critical_pore_diameter(const Volume& labels, int axis_zyx);
+
 struct LocalThicknessOptions {
   // Paint only the "ridge" spheres: a sphere that lies inside a neighbour's sphere (R' >= R +
   // |c' - c|) cannot raise any voxel's value and is skipped. Exact either way; off for tests.

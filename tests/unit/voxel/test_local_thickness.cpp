@@ -9,6 +9,7 @@
 #include "reference.h"
 #include "test_util.h"
 #include "voxel/local_thickness.h"
+#include "voxel/segment.h"
 
 namespace mesorock::voxel::test {
 namespace {
@@ -90,6 +91,34 @@ TEST(LocalThickness, AllPoreIsRefused) {
   std::fill_n(v.data<std::uint8_t>(), v.voxels(), std::uint8_t(3));
   const Volume t = local_thickness(v);
   EXPECT_EQ(size_distribution(t, v).pore_voxels, 0);
+}
+
+// The critical pore diameter: a channel 8 voxels wide along x with a neck 4 voxels wide (by
+// hand: the neck's middle voxels are 2 voxel centres from the solid, so 2 x 2 = 4 voxels) passes
+// spheres of 4 voxels and no wider; along y nothing spans (the channel is closed there by solid
+// rows), and a solid plane across x closes it to 0. The spacing scales the answer.
+TEST(LocalThickness, CriticalDiameterIsTheNeckOfAChannel) {
+  for (const double dx : {1.0, 2.5}) {
+    Volume v(Shape{12, 12, 20}, DType::kUInt8, Spacing{dx, dx, dx, "nm"});
+    std::uint8_t* c = v.data<std::uint8_t>();
+    for (std::int64_t z = 0; z < 12; ++z)
+      for (std::int64_t y = 0; y < 12; ++y)
+        for (std::int64_t x = 0; x < 20; ++x) {
+          const bool wide = y >= 2 && y < 10 && z >= 2 && z < 10;
+          const bool neck = y >= 4 && y < 8 && z >= 4 && z < 8;
+          const bool in_neck_span = x >= 9 && x < 12;
+          const bool pore = in_neck_span ? neck : wide;
+          c[(z * 12 + y) * 20 + x] =
+              static_cast<std::uint8_t>(pore ? Phase::kPore : Phase::kInorganic);
+        }
+    EXPECT_NEAR(critical_pore_diameter(v, 2), 4 * dx, 1e-9) << dx;
+    EXPECT_EQ(critical_pore_diameter(v, 1), 0.0);
+    for (std::int64_t z = 0; z < 12; ++z)
+      for (std::int64_t y = 0; y < 12; ++y)
+        c[(z * 12 + y) * 20 + 15] = static_cast<std::uint8_t>(Phase::kInorganic);
+    EXPECT_EQ(critical_pore_diameter(v, 2), 0.0);
+  }
+  EXPECT_THROW(critical_pore_diameter(Volume(Shape{2, 2, 2}, DType::kUInt8), 3), ConfigError);
 }
 
 }  // namespace
