@@ -40,15 +40,22 @@ namespace fs = std::filesystem;
 namespace mesorock::pipeline::prep {
 namespace {
 
-// The block's pore sizes in voxels (along x): local thickness by pore volume.
+// The block's pore sizes in voxels (along x): local thickness by pore volume, and the critical
+// diameter along the flow axis (the largest sphere that passes through; voxel/local_thickness.h).
 struct PoreSizes {
   bool available = false;
   double d10_voxels = 0, median_voxels = 0, mean_voxels = 0, max_voxels = 0;
+  double critical_voxels = 0;
 };
 
-PoreSizes pore_sizes_of(const voxel::Volume& labels, Progress& progress, const std::string& name) {
+PoreSizes pore_sizes_of(const voxel::Volume& labels, int flow_axis, Progress& progress,
+                        const std::string& name) {
   PoreSizes p;
   try {
+    p.critical_voxels =
+        progress.stage("critical pore diameter along the flow axis", labels.voxels(),
+                       [&] { return voxel::critical_pore_diameter(labels, 2 - flow_axis); }) /
+        labels.spacing().dx;
     const voxel::Volume thickness = progress.stage("pore sizes (local thickness)", labels.voxels(),
                                                    [&] { return voxel::local_thickness(labels); });
     const voxel::SizeDistribution d = voxel::size_distribution(thickness, labels);
@@ -250,17 +257,17 @@ int run_run(const RunArgs& a) {
                             [&] { return voxel::crop(labels, *crop); });
   }
   const voxel::Shape shape = labels.shape();
-  // Pore sizes (local thickness by pore volume) and, without a length scale, the rc per voxel
-  // that resolves them (pipeline/prep/resolution.h).
-  const PoreSizes sizes = pore_sizes_of(labels, progress, name);
+  // Pore sizes and, without a length scale, the rc per voxel that resolves the throats
+  // (pipeline/prep/stokes_regime.h).
+  const PoreSizes sizes = pore_sizes_of(labels, flow_axis, progress, name);
   if (a.nm_per_rc == 0 && a.rc_per_voxel == 0) {
-    scale.rc_per_voxel = auto_rc_per_voxel(sizes.median_voxels);
+    scale.rc_per_voxel = auto_rc_per_voxel(sizes.critical_voxels);
     std::ostringstream s;
     s.precision(3);
     s << "no length scale given: " << scale.rc_per_voxel
-      << " rc per voxel, so the median pore diameter (" << sizes.median_voxels << " voxels) is "
-      << sizes.median_voxels * scale.rc_per_voxel << " rc (at least " << kResolvedPoreDiameterRc
-      << " rc: docs/accuracy.md, resolution on real rock)";
+      << " rc per voxel, so the critical pore diameter along " << a.flow_axis << " ("
+      << sizes.critical_voxels << " voxels) is " << sizes.critical_voxels * scale.rc_per_voxel
+      << " rc (at least " << kResolvedThroatRc << " rc: docs/accuracy.md, resolution on real rock)";
     progress.note(s.str());
   }
   const double rc_per_voxel = scale.rc_per_voxel;
@@ -340,25 +347,30 @@ int run_run(const RunArgs& a) {
     s.precision(3);
     s << "pore sizes (local thickness by pore volume): d10 " << sizes.d10_voxels * rc << ", median "
       << sizes.median_voxels * rc << ", mean " << sizes.mean_voxels * rc << ", max "
-      << sizes.max_voxels * rc << " rc";
+      << sizes.max_voxels * rc << " rc; critical diameter along " << a.flow_axis << " "
+      << sizes.critical_voxels * rc << " rc (the largest sphere that passes through)";
     progress.note(s.str());
     // Only a permeability measurement has a resolution to meet (docs/accuracy.md).
-    if (permeability && sizes.median_voxels * rc < kResolvedPoreDiameterRc) {
+    if (permeability && sizes.critical_voxels * rc < kResolvedThroatRc) {
       std::ostringstream w;
       w.precision(3);
-      w << "the pores that carry the flow are " << sizes.median_voxels * rc
-        << " rc across (median local thickness), below the " << kResolvedPoreDiameterRc
-        << " rc at which the resolution study keeps the permeability within 10% of a continuum "
-           "solution (docs/accuracy.md): use --rc-per-voxel "
-        << auto_rc_per_voxel(sizes.median_voxels) << " or more";
+      w << "the throats that control the flow are " << sizes.critical_voxels * rc
+        << " rc across (critical pore diameter along " << a.flow_axis << "), below the "
+        << kResolvedThroatRc
+        << " rc at which the resolution study found the permeability within 10% of a "
+           "continuum solution (docs/accuracy.md): use --rc-per-voxel "
+        << auto_rc_per_voxel(sizes.critical_voxels) << " or more";
       progress.warn(w.str());
     }
-    record["pore_sizes"] = {{"method", "local thickness, by pore volume, of the block"},
+    record["pore_sizes"] = {{"method",
+                             "local thickness by pore volume of the block; critical diameter: the "
+                             "largest sphere whose centres connect the faces along the flow axis"},
                             {"d10_rc", sizes.d10_voxels * rc},
                             {"median_rc", sizes.median_voxels * rc},
                             {"mean_rc", sizes.mean_voxels * rc},
                             {"max_rc", sizes.max_voxels * rc},
-                            {"resolved_diameter_rc", kResolvedPoreDiameterRc}};
+                            {"critical_rc", sizes.critical_voxels * rc},
+                            {"resolved_critical_rc", kResolvedThroatRc}};
   }
 
   // Tiles.
@@ -746,7 +758,7 @@ Command add_run_command(CLI::App& rockprep) {
   app->add_option("--nm-per-rc", a->nm_per_rc, "Length scale: rc in nm (needs a physical spacing)");
   app->add_option("--rc-per-voxel", a->rc_per_voxel,
                   "Length scale: rc per voxel edge along x (without it or --nm-per-rc: chosen so "
-                  "the median pore diameter is resolved, docs/accuracy.md)");
+                  "the critical pore diameter, the throats, is resolved, docs/accuracy.md)");
   app->add_option("--flow-axis", a->flow_axis, "x (default), y or z")
       ->check(CLI::IsMember({"x", "y", "z"}));
   app->add_option("--layout", a->layout,

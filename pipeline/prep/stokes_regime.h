@@ -10,10 +10,13 @@
 //    it by 0.05 rc): -30 gave 0.13 rc, -20 0.05 rc, -15 -0.03 rc, -10 -0.07 rc (docs/walls.md,
 //    "Where the no-slip plane lies"). kNoSlipWallA is where it crosses zero. Flooding set-ups
 //    keep their wetting values (-30, -40): there the wall affinity is the contact angle.
-// 2. A resolved pore size: the resolution study on real rock (docs/accuracy.md, "Resolution on
-//    real rock") measured the error of rockflow sweep against rockflow lbm at 0.5, 0.75 and 1.0
-//    rc per voxel. rockprep run reports the pore sizes in rc, warns below this size, and picks
-//    the rc per voxel that reaches it when no length scale is given.
+// 2. Resolved throats: the resolution study on real rock (docs/accuracy.md, "Resolution on real
+//    rock") compared rockflow sweep with rockflow lbm on Berea and Leopard crops. The error
+//    follows the critical pore diameter along the flow axis (the largest sphere that passes
+//    through, voxel::critical_pore_diameter), not the median pore size: -24% at 2.0 rc, -10% at
+//    2.24 rc, -3.5% at 2.83 rc, +3.8% at 3.0 rc. rockprep run reports it in rc, warns below
+//    kResolvedThroatRc, and, with no length scale given, picks the rc per voxel that reaches it
+//    (at least 0.5).
 #include <algorithm>
 #include <cmath>
 
@@ -22,19 +25,18 @@ namespace mesorock::pipeline::prep {
 // The fluid-wall A of the permeability layout's default walls (both wall types).
 constexpr double kNoSlipWallA = -18.0;
 
-// The volume-weighted median local thickness (the diameter of the largest sphere that fits, by
-// pore volume: the pores that carry the flow) in rc above which the study's error stays within
-// 10%.
-constexpr double kResolvedPoreDiameterRc = 5.0;
+// The critical pore diameter in rc from which on the study's errors were within 10% (2.83 rc
+// gave -3.5%; 2.24 rc gave -10% +- 8%, on the edge).
+constexpr double kResolvedThroatRc = 2.8;
 // The auto resolution's bounds: finer than 0.5 rc per voxel costs particles without need;
 // coarser than 2 rc per voxel (8x the particles of 1) is better cropped smaller.
 constexpr double kMinAutoRcPerVoxel = 0.5, kMaxAutoRcPerVoxel = 2.0;
 
-// The rc per voxel that makes a median pore diameter of `median_voxels` voxels reach
-// kResolvedPoreDiameterRc, rounded up to a multiple of 0.05, within the bounds above.
-inline double auto_rc_per_voxel(double median_voxels) {
-  if (!(median_voxels > 0)) return kMaxAutoRcPerVoxel;
-  const double want = std::ceil(kResolvedPoreDiameterRc / median_voxels / 0.05 - 1e-9) * 0.05;
+// The rc per voxel that makes a critical pore diameter of `critical_voxels` voxels reach
+// kResolvedThroatRc, rounded up to a multiple of 0.05, within the bounds above.
+inline double auto_rc_per_voxel(double critical_voxels) {
+  if (!(critical_voxels > 0)) return kMaxAutoRcPerVoxel;
+  const double want = std::ceil(kResolvedThroatRc / critical_voxels / 0.05 - 1e-9) * 0.05;
   return std::clamp(want, kMinAutoRcPerVoxel, kMaxAutoRcPerVoxel);
 }
 

@@ -363,12 +363,12 @@ TEST(PackingCli, RunPicksTheResolutionFromThePoreSizes) {
   EXPECT_NE(r.out.find("no length scale given"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("pore sizes (local thickness by pore volume)"), std::string::npos) << r.out;
   const auto run = nlohmann::json::parse(mesorock::test::read_file(tmp / "auto" / "run.json"));
-  const double median = run["pore_sizes"]["median_rc"].get<double>();
+  const double critical = run["pore_sizes"]["critical_rc"].get<double>();
   const double rpv = run["parameters"]["scale"]["rc_per_voxel"].get<double>();
-  EXPECT_DOUBLE_EQ(rpv, pipeline::prep::auto_rc_per_voxel(median / rpv));
-  EXPECT_TRUE(median >= pipeline::prep::kResolvedPoreDiameterRc - 1e-9 ||
+  EXPECT_NEAR(rpv, pipeline::prep::auto_rc_per_voxel(critical / rpv), 1e-12);
+  EXPECT_TRUE(critical >= pipeline::prep::kResolvedThroatRc - 1e-9 ||
               rpv == pipeline::prep::kMaxAutoRcPerVoxel)
-      << median << " rc at " << rpv << " rc per voxel";
+      << critical << " rc at " << rpv << " rc per voxel";
   EXPECT_DOUBLE_EQ(run["parameters"]["pairs"]["a_inorganic"].get<double>(),
                    pipeline::prep::kNoSlipWallA);
   const pipeline::Scene scene = pipeline::load_scene(tmp / "auto" / "scene.toml");
