@@ -31,17 +31,15 @@ struct LeakRecord {
   void check(sim::Simulation& sim, std::uint64_t step) {
     const sim::SolidIntrusion s = sim.solid_intrusion();
     if (!s.available) return;
-    available = true;
-    ++checks;
-    last_inside = s.inside;
-    last_depth = s.max_depth;
-    if (s.inside > max_inside) max_inside = s.inside;
-    if (s.deepest_id >= 0 && (deepest_id < 0 || s.max_depth > max_depth)) {
-      max_depth = s.max_depth;
-      deepest_id = s.deepest_id;
-      deepest_position = s.deepest_position;
-      deepest_step = step;
-    }
+    LeakRecord now;
+    now.available = true;
+    now.checks = 1;
+    now.last_inside = now.max_inside = s.inside;
+    now.last_depth = now.max_depth = s.max_depth;
+    now.deepest_id = s.deepest_id;
+    now.deepest_position = s.deepest_position;
+    now.deepest_step = step;
+    merge(now);
     const std::uint64_t limit = sim.model().solid.stop_count;
     if (s.inside > limit)
       throw NumericalError("step " + std::to_string(step) +

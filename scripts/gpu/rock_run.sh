@@ -82,17 +82,11 @@ for job in $JOBS; do
     res)
       # One force per resolution, scaled as 1 / (rc per voxel)^2 so the pore velocities (and the
       # signal over the thermal noise of the flux) stay alike.
-      for r in $RES; do
+      for spec in $(for r in $RES; do echo berea:$r; done; for r in ${LEOPARD_RES-0.5}; do echo leopard:$r; done); do
+        rock_name=${spec%%:*} r=${spec#*:}
         g=$(python3 -c "print(round(0.04 / $r ** 2, 4))")
-        d=$res_dir/berea50_r$r
-        berea 0:50,0:50,0:50 "$r" "$d"
-        sweep "$d" "$g"
-        rm -f "$d/particles.h5" "$d/tiles.h5"
-      done
-      for r in ${LEOPARD_RES-0.5}; do
-        g=$(python3 -c "print(round(0.04 / $r ** 2, 4))")
-        d=$res_dir/leopard50_r$r
-        leopard 0:50,0:50,0:50 "$r" "$d"
+        d=$res_dir/${rock_name}50_r$r
+        $rock_name 0:50,0:50,0:50 "$r" "$d"
         sweep "$d" "$g"
         rm -f "$d/particles.h5" "$d/tiles.h5"
       done
