@@ -22,6 +22,7 @@
 #include "pipeline/scene.h"
 #include "sim/init.h"
 #include "sim/particle_io.h"
+#include "sim/solid_grid.h"
 #include "support/test_support.h"
 
 namespace fs = std::filesystem;
@@ -265,6 +266,53 @@ final_snapshot = false
   EXPECT_EQ(s.output.thermo_every, 0u);
   EXPECT_EQ(s.output.snapshot_every, 10u);
   EXPECT_FALSE(s.output.final_snapshot);
+}
+
+// [solid]: the mask is read (relative to the scene's folder) into the model with its settings;
+// a missing file, a grid that does not fit the box, a bad value and an unknown key are one-line
+// errors naming the file and the key.
+TEST(Scene, SolidTableReadsTheMaskAndRefusesBadOnes) {
+  TempDir dir;
+  mesorock::sim::SolidMask m;
+  m.dims = {16, 12, 10};
+  m.voxel = {0.5, 0.5, 0.5};
+  m.solid.assign(16 * 12 * 10, 0);
+  m.solid[m.index(3, 4, 5)] = 1;
+  mesorock::sim::write_solid_file(dir / "solid.h5", m, "test", "{}");
+  auto scene_with = [&](const std::string& solid) {
+    const fs::path p = dir / "s.toml";
+    std::ofstream(p) << kTwoTypeScene
+                     << "[[init]]\nkind = \"random\"\ntype = \"fluid\"\ncount = 10\n"
+                     << solid;
+    return p;
+  };
+  const Scene s =
+      load_scene(scene_with("[solid]\nfile = \"solid.h5\"\nbounce = false\n"
+                            "stop_depth = 0.25\nstop_count = 3\n"));
+  ASSERT_TRUE(s.model.solid.mask);
+  EXPECT_EQ(s.model.solid.mask->solid, m.solid);
+  EXPECT_FALSE(s.model.solid.bounce);
+  EXPECT_EQ(s.model.solid.stop_depth, 0.25);
+  EXPECT_EQ(s.model.solid.stop_count, 3u);
+  EXPECT_FALSE(load_scene(scene_with("")).model.solid.mask);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"[solid]\nfile = \"absent.h5\"\n",
+       "solid.file: " + (dir / "absent.h5").string() + ": no such file"},
+      {"[solid]\nfile = \"solid.h5\"\nstop_depth = 0\n", "solid.stop_depth: must be in (0, 4]"},
+      {"[solid]\nfile = \"solid.h5\"\nstop_count = -1\n", "solid.stop_count: must be >= 0"},
+      {"[solid]\nfile = \"solid.h5\"\nbouce = true\n", "bouce"},
+      {"[solid]\nbounce = true\n", "solid.file"},
+  };
+  for (const auto& [text, message] : bad) {
+    const std::string e = error_of([&] { load_scene(scene_with(text)); });
+    EXPECT_NE(e.find(message), std::string::npos) << text << " -> " << e;
+    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+  }
+  m.dims = {20, 12, 10};  // 10 rc along x: longer than the box's 8
+  m.solid.assign(20 * 12 * 10, 0);
+  mesorock::sim::write_solid_file(dir / "solid.h5", m, "test", "{}");
+  const std::string e = error_of([&] { load_scene(scene_with("[solid]\nfile = \"solid.h5\"\n")); });
+  EXPECT_NE(e.find("does not fit in the box"), std::string::npos) << e;
 }
 
 TEST(Scene, MissingSceneFileIsAnIoError) {

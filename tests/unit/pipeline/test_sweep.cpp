@@ -81,6 +81,29 @@ TEST(SweepFits, ErrorBarsAreRightOnSyntheticData) {
   EXPECT_GT(std::abs(quad.departure(0.4)), 2 * quad.departure_error(0.4));
 }
 
+// The drift test of the steady state (Student's t_99 on the least-squares trend of the measured
+// blocks): a flux still falling by 20% across 10 noisy blocks (the leaking rock's fell by 24%
+// across 16) is caught; flat noise passes about 99% of the time, as its level says.
+TEST(SweepFits, TheTrendTestCatchesAFallingFluxAndPassesFlatNoise) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int caught = 0, flagged = 0;
+  const int trials = 4000;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<double> falling, flat;
+    for (int k = 0; k < 10; ++k) {
+      falling.push_back(5e-3 * (1 - 0.02 * k) + 1e-4 * normal(rng));
+      flat.push_back(5e-3 + 1e-4 * normal(rng));
+    }
+    caught += mp::trend_of(falling, 0, falling.size()).significant();
+    flagged += mp::trend_of(flat, 0, flat.size()).significant();
+  }
+  EXPECT_GT(caught, 0.99 * trials);
+  EXPECT_NEAR(flagged / double(trials), 0.01, 0.006);
+  EXPECT_FALSE(mp::trend_of({1, 2}, 0, 2).significant());  // too few blocks to judge
+  EXPECT_NEAR(mp::t_99(8), 3.355, 1e-9);
+}
+
 // A periodic fluid with no walls accelerates under a body force forever: never steady.
 TEST(Sweep, AnAcceleratingFlowIsNotSteady) {
   const double L[3] = {3, 3, 3};
