@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <numeric>
 #include <set>
 #include <string>
@@ -107,6 +108,51 @@ void expect_same_forces(const System& s, const ms::SimulationOptions& o, double 
               tolerance * scale)
         << "axis " << a << " (" << dd->decomposition_report() << ")";
   EXPECT_LE(max_difference(ref->densities(), dd->densities()), 1e-12);
+}
+
+// The solid grid on several ranks: a liquid driven along x through a slab of solid voxels with no
+// wall particles in it. Without the bounce the fluid flows into the slab and the decomposed leak
+// invariant (summed over the ranks, the deepest particle found on its rank) counts exactly what
+// the gathered particles and the mask say; with the bounce no rank lets one in.
+TEST(Decomposed, SolidGridBouncesAndCountsOnEveryRank) {
+  for (const bool bounce : {false, true}) {
+    System s = liquid(8, 6, 6, 31);
+    s.model.types[0].body_force = {0.5, 0, 0};
+    auto mask = std::make_shared<ms::SolidMask>();
+    mask->dims = {16, 12, 12};
+    mask->voxel = {0.5, 0.5, 0.5};
+    mask->solid.assign(16 * 12 * 12, 0);
+    for (int k = 0; k < 12; ++k)
+      for (int j = 0; j < 12; ++j)
+        for (int i = 6; i < 8; ++i) mask->solid[mask->index(i, j, k)] = 1;  // x in [3, 4)
+    ms::ParticleSet outside;
+    for (size_t i = 0; i < s.particles.size(); ++i)
+      if (!(s.particles.x[i] >= 3 && s.particles.x[i] < 4))
+        outside.add(s.particles.x[i], s.particles.y[i], s.particles.z[i], s.particles.vx[i],
+                    s.particles.vy[i], s.particles.vz[i], 0, s.particles.id[i]);
+    s.particles = outside;
+    s.model.solid.mask = mask;
+    s.model.solid.bounce = bounce;
+    s.model.solid.stop_depth = 4;
+    auto dd = ms::make_simulation(s.model, s.box, s.particles, 0.01, decomposed());
+    dd->run(200);
+    const ms::SolidIntrusion in = dd->solid_intrusion();
+    const ms::ParticleSet p = dd->particles();
+    std::uint64_t inside = 0;
+    for (size_t i = 0; i < p.size(); ++i) inside += p.x[i] >= 3 && p.x[i] < 4;
+    ASSERT_TRUE(in.available);
+    EXPECT_EQ(in.inside, inside) << "bounce " << bounce;
+    if (bounce) {
+      EXPECT_EQ(in.inside, 0u);
+    } else {
+      EXPECT_GT(in.inside, 10u);
+      ASSERT_GE(in.deepest_id, 0);
+      EXPECT_GT(in.max_depth, 0.0);
+      EXPECT_LE(in.max_depth, 0.5);  // the slab is 1 rc thick
+      EXPECT_GE(in.deepest_position[0], 3.0);
+      EXPECT_LT(in.deepest_position[0], 4.0);
+    }
+  }
 }
 
 TEST(Decomposed, ForcesEqualTheSingleRankOnes) {
