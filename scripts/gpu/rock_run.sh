@@ -11,8 +11,9 @@
 #     res    Berea crop 50^3 at each of $RES rc per voxel, Leopard at $LEOPARD_RES: a sweep at
 #            g = 0.04 / (rc per voxel)^2 (resolution study; the LBM references run on the CPU
 #            machine from the solid.h5 files that come back)
-#     darcy  Berea and Leopard crops 50^3 at $DARCY_RES_BEREA and $DARCY_RES_LEOPARD rc per voxel:
-#            sweeps at four forces spanning a factor of 8 ($DARCY_FORCES_BEREA, ..._LEOPARD)
+#     darcy  Berea and Leopard crops 50^3 ($DARCY_ROCKS) at $DARCY_RES_BEREA and $DARCY_RES_LEOPARD
+#            rc per voxel ("auto": rockprep's choice): sweeps at four forces spanning a factor
+#            of 8 ($DARCY_FORCES_BEREA, ..._LEOPARD)
 set -uo pipefail
 out=${OUT:-gpu-out}
 mkdir -p "$out"
@@ -38,20 +39,23 @@ DARCY_RES_BEREA=${DARCY_RES_BEREA:-0.75}
 DARCY_RES_LEOPARD=${DARCY_RES_LEOPARD:-0.5}
 DARCY_FORCES_BEREA=${DARCY_FORCES_BEREA:-0.018,0.036,0.071,0.142}
 DARCY_FORCES_LEOPARD=${DARCY_FORCES_LEOPARD:-0.02,0.04,0.08,0.16}
+DARCY_ROCKS=${DARCY_ROCKS:-"berea leopard"}
 # The viscosity calibrations of earlier calls travel in .carry/rock/cache.
 mkdir -p "$res_dir/cache" && cp .carry/rock/cache/*.json "$res_dir/cache/" 2>/dev/null
+# "auto": rockprep's default, the rc per voxel it picks from the critical pore diameter.
+rpv_option() { [ "$1" = auto ] || echo "--rc-per-voxel $1"; }
 berea() {  # berea CROP RPV DIR [rockprep options]
   local crop=$1 rpv=$2 dir=$3
   shift 3
   $bin/rockprep run "$rock/berea_100_to_300.npz" --labels true=pore,false=solid --crop "$crop" \
-    --spacing 5.345,5.345,5.345 --unit um --rc-per-voxel "$rpv" --layout permeability \
+    --spacing 5.345,5.345,5.345 --unit um $(rpv_option "$rpv") --layout permeability \
     --tiles "$rock/tiles.h5" --threads "$(nproc)" --out "$dir" "$@" > "$dir.prep.log" 2>&1
 }
 leopard() {  # leopard CROP RPV DIR [rockprep options]
   local crop=$1 rpv=$2 dir=$3
   shift 3
   $bin/rockprep run "$rock/image_Leopard_slice100.npy" --labels 1=pore,0=solid --crop "$crop" \
-    --spacing 2.25,2.25,2.25 --unit um --rc-per-voxel "$rpv" --layout permeability \
+    --spacing 2.25,2.25,2.25 --unit um $(rpv_option "$rpv") --layout permeability \
     --tiles "$rock/tiles.h5" --threads "$(nproc)" --out "$dir" "$@" > "$dir.prep.log" 2>&1
 }
 sweep() {  # sweep DIR FORCES [options]
@@ -92,15 +96,15 @@ for job in $JOBS; do
       done
       ;;
     darcy)
-      d=$res_dir/berea50_darcy_r$DARCY_RES_BEREA
-      berea 0:50,0:50,0:50 "$DARCY_RES_BEREA" "$d"
-      sweep "$d" "$DARCY_FORCES_BEREA"
-      rm -f "$d/particles.h5" "$d/tiles.h5"
-      pack
-      d=$res_dir/leopard50_darcy_r$DARCY_RES_LEOPARD
-      leopard 0:50,0:50,0:50 "$DARCY_RES_LEOPARD" "$d"
-      sweep "$d" "$DARCY_FORCES_LEOPARD"
-      rm -f "$d/particles.h5" "$d/tiles.h5"
+      for rock_name in $DARCY_ROCKS; do
+        if [ "$rock_name" = berea ]; then r=$DARCY_RES_BEREA forces=$DARCY_FORCES_BEREA
+        else r=$DARCY_RES_LEOPARD forces=$DARCY_FORCES_LEOPARD; fi
+        d=$res_dir/${rock_name}50_darcy_r$r
+        $rock_name 0:50,0:50,0:50 "$r" "$d"
+        sweep "$d" "$forces"
+        rm -f "$d/particles.h5" "$d/tiles.h5"
+        pack
+      done
       ;;
   esac
   log "job $job: $(( $(date +%s) - start )) s"
