@@ -14,6 +14,7 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
+#include "pipeline/cli_counts.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/bench.h"
 #include "pipeline/flow/interrupt.h"
@@ -267,6 +268,7 @@ int main(int argc, char** argv) {
         ->capture_default_str();
 
     const mp::StudyCommand study = mp::add_study_command(app, backend, threads);
+    mp::bound_count_options(app);
 
     try {
       app.parse(argc, argv);
@@ -311,6 +313,15 @@ int main(int argc, char** argv) {
           if (!item.empty()) out.push_back(item);
         return out;
       };
+      // Every item of the list must be a number: "0.01,,0.02" is a typo, not two forces.
+      for (std::string rest = forces_text + ",";;) {
+        const auto comma = rest.find(',');
+        if (comma == std::string::npos) break;
+        if (rest.find_first_not_of(" \t") == comma)
+          throw mesorock::ConfigError("sweep: --forces '" + forces_text +
+                                      "': an empty item (forces are comma-separated numbers)");
+        rest.erase(0, comma + 1);
+      }
       for (const auto& f : split(forces_text)) {
         try {
           size_t used = 0;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "mesorock/version.h"
+#include "pipeline/cli_counts.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/prep/common.h"
 
@@ -25,6 +26,7 @@ int main(int argc, char** argv) {
         prep::add_tiles_command(app),    prep::add_run_command(app),
         prep::add_validate_command(app)};
     app.require_subcommand(0, 1);
+    mesorock::pipeline::bound_count_options(app);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

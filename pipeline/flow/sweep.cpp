@@ -24,12 +24,24 @@ namespace {
 
 constexpr double kMillidarcyM2 = 9.869233e-16;  // 1 mD in m^2 (1 D = 9.869233e-13 m^2)
 
-void check_options(const SweepSample& s, const SweepOptions& o) {
-  if (o.forces.empty()) throw ConfigError("sweep: no driving forces given");
-  for (double g : o.forces)
+// The force list is checked whole before any work: a repeated force used to be simulated with the
+// others and refused only at the fit, losing every point.
+void check_forces(const std::string& where, const std::vector<double>& forces) {
+  if (forces.empty()) throw ConfigError(where + ": no driving forces given");
+  for (double g : forces)
     if (!std::isfinite(g) || !(g > 0))
-      throw ConfigError("sweep: every driving force must be a positive number (got " +
+      throw ConfigError(where + ": every driving force must be a positive number (got " +
                         std::to_string(g) + ")");
+  std::vector<double> sorted = forces;
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t k = 1; k < sorted.size(); ++k)
+    if (sorted[k] == sorted[k - 1])
+      throw ConfigError(where + ": the force " + std::to_string(sorted[k]) +
+                        " is given twice (each point needs its own force)");
+}
+
+void check_options(const SweepSample& s, const SweepOptions& o) {
+  check_forces("sweep", o.forces);
   if (o.axis < 0 || o.axis > 2) throw ConfigError("sweep: the flow axis must be x, y or z");
   if (o.driven_types == 0) throw ConfigError("sweep: no driven type");
   for (int t = 0; t < s.model.ntypes(); ++t) {
@@ -310,10 +322,7 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
           if (v > best) best = v, axis = a;
         }
   }
-  for (double g : c.forces)
-    if (!std::isfinite(g) || !(g > 0))
-      throw ConfigError(where + ": every driving force must be a positive number (got " + fmt(g) +
-                        ")");
+  check_forces(where, c.forces);
   for (int t = 0; t < model.ntypes(); ++t) {
     if (!((driven >> t) & 1u)) continue;
     bool slab = false;

@@ -401,6 +401,10 @@ TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
            shell_quote(small_db().string()) + " --out o",
        "no pore cluster joins"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --wall-thickness-rc 0.5 --out o", "thickness"},
+      // Negative counts wrapped to 2^64 - 1 (issue 22), and --threads had no bound.
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --flow-steps -1 --out o", "--flow-steps"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --tile-variants 1e18 --out o", "--tile-variants"},
+      {"run syn/truth.mhd --rc-per-voxel 0.5 --threads 100000 --out o", "--threads"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --crop 0:5,0:5,0:50 --out o", "syn/truth.mhd"},
       {"run syn/grey --rc-per-voxel 0.5 --out o", "not a phase-label volume"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --tiles syn/truth.raw --out o", "truth.raw"},

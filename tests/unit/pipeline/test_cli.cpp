@@ -46,6 +46,13 @@ TEST(RockflowCli, BadUsageExitsTwo) {
   EXPECT_EQ(rockflow("validate no-such-case").exit_code, 2);
   EXPECT_EQ(rockflow("validate conservation --size huge").exit_code, 2);
   EXPECT_EQ(rockflow("bench --case nowhere").exit_code, 2);
+  // Negative counts used to wrap to 2^64 - 1 (bench --steps -1 hung): refused at parse time.
+  for (const char* args : {"bench --steps -1", "bench --particles -5", "bench --steps 1e300",
+                           "bench --threads 100000"}) {
+    const CommandResult r = rockflow(args);
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(args).substr(6, 7)), std::string::npos) << args << ": " << r.err;
+  }
   EXPECT_EQ(rockflow("run /no/such/scene.toml").exit_code, 2);
   EXPECT_EQ(rockflow("--version").exit_code, 0);
 }

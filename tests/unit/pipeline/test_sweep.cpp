@@ -259,4 +259,31 @@ TEST(SweepCli, BadInputIsOneLineAndExitTwo) {
   EXPECT_FALSE(fs::exists(dir / "o" / "sweep.json"));
 }
 
+// Refused before any step (issue 22): a repeated force used to run every point and fail at the
+// fit; an empty list item was dropped silently; a negative count wrapped to 2^64 - 1 and hung.
+TEST(SweepCli, BadListsAndNegativeCountsAreRefusedBeforeAnyStep) {
+  TempDir dir;
+  const fs::path scene = dir / "slit.toml";
+  std::ofstream(scene) << kSlit;
+  const std::string base = mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
+                           mesorock::test::shell_quote(scene.string()) + " --out " +
+                           mesorock::test::shell_quote((dir / "o").string()) +
+                           " --viscosity 7 --threads 1";
+  const std::pair<std::string, std::string> cases[] = {
+      {" --forces 0.01,0.01", "given twice"},
+      {" --forces 0.02,0.01,0.020", "given twice"},
+      {" --forces 0.01,,0.02", "empty item"},
+      {" --forces 0.01, ", "empty item"},
+      {" --forces 0.01 --warmup -1 --block-steps 50 --window 2 --measure-blocks 2"
+       " --max-steps 1000", "--warmup"},
+      {" --forces 0.01 --max-steps 18446744073709551615", "--max-steps"}};
+  for (const auto& [args, what] : cases) {
+    const CommandResult r = mesorock::test::run_command(base + args, dir.path());
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << args << ": " << r.err;
+    EXPECT_EQ(r.err.find("MPS/s"), std::string::npos) << args << ": it ran: " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "o" / "sweep.json"));
+}
+
 }  // namespace
