@@ -39,6 +39,19 @@ inline std::string check_threads_text(const std::string& text) {
   return "";
 }
 
+// For a length scale typed by the user: 0 used to read as "not given" (rockprep run then picked
+// one; walls asked to "give exactly one of" the two options).
+inline CLI::Validator positive_value() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double value = std::strtod(text.c_str(), &end);
+        if (end != text.c_str() && !(value > 0)) return "must be positive (got " + text + ")";
+        return "";
+      },
+      "");
+}
+
 inline void bound_count_options(CLI::App& app) {
   for (CLI::Option* option : app.get_options()) {
     if (option->get_name() == "--threads")

@@ -339,6 +339,23 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
                       "[[init]] block of a driven type says)");
   if (!(*density > 0)) throw ConfigError(where + ": --fluid-density must be positive");
 
+  // The sample, built before any step: a sample without solid (an all-pore image, a bulk box)
+  // has no permeability (the driven fluid accelerates without bound; such runs reported
+  // k = 3.3 and 11.9 rc^2), so it is refused here rather than given a number.
+  SweepSample sample{scene.model, scene.box, build_initial_particles(scene)};
+  std::size_t fluid_count = 0, frozen_count = 0;
+  for (auto t : sample.particles.type) {
+    fluid_count += (driven >> t) & 1u;
+    frozen_count += model.types[static_cast<size_t>(t)].frozen ? 1 : 0;
+  }
+  const bool solid_voxels =
+      model.solid.mask && std::find(model.solid.mask->solid.begin(), model.solid.mask->solid.end(),
+                                    std::uint8_t{1}) != model.solid.mask->solid.end();
+  if (frozen_count == 0 && !solid_voxels)
+    throw ConfigError(where +
+                      ": the sample has no solid (no wall particles and no solid voxel), and a "
+                      "sample without solid has no permeability");
+
   ProgressMeter meter("rockflow sweep", std::cerr, c.progress);
   SweepOptions o = c.run;
   o.sim.on_run = [&meter](std::uint64_t steps, std::size_t n) { meter.advance(steps, n); };
@@ -400,9 +417,6 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
                       {"calibration", v.record}};
   }
 
-  SweepSample sample{scene.model, scene.box, build_initial_particles(scene)};
-  std::size_t fluid_count = 0;
-  for (auto t : sample.particles.type) fluid_count += (driven >> t) & 1u;
   const std::vector<SweepPoint> points = run_sweep(sample, o);
   const SweepFits fits = fit_sweep(points, o.viscosity, o.viscosity_error);
 

@@ -23,6 +23,7 @@
 #include "packing/pack.h"
 #include "packing/permeability.h"
 #include "packing/sink.h"
+#include "pipeline/cli_counts.h"
 #include "pipeline/prep/common.h"
 #include "pipeline/prep/flooding_scene.h"
 #include "pipeline/prep/packing_common.h"
@@ -257,6 +258,15 @@ int run_run(const RunArgs& a) {
                             [&] { return voxel::crop(labels, *crop); });
   }
   const voxel::Shape shape = labels.shape();
+  // A sample without solid has no permeability (its driven fluid would accelerate without bound):
+  // refused before any work (packing::build_permeability_layout refuses it too).
+  if (permeability) {
+    const voxel::PhaseCounts counts = voxel::count_phases(labels);
+    if (counts.voxels[2] + counts.voxels[3] == 0)
+      throw ConfigError(name +
+                        ": permeability layout: the block has no solid voxel, and a sample "
+                        "without solid has no permeability");
+  }
   // Pore sizes and, without a length scale, the rc per voxel that resolves the throats
   // (pipeline/prep/stokes_regime.h).
   const PoreSizes sizes = pore_sizes_of(labels, flow_axis, progress, name);
@@ -755,10 +765,12 @@ Command add_run_command(CLI::App& rockprep) {
   app->add_option("--phases", a->phases,
                   "Phases of the classes, darkest first (default pore,organic,inorganic for 3)");
   app->add_option("--crop", a->crop, "Voxel box Z0:Z1,Y0:Y1,X0:X1 of the block");
-  app->add_option("--nm-per-rc", a->nm_per_rc, "Length scale: rc in nm (needs a physical spacing)");
+  app->add_option("--nm-per-rc", a->nm_per_rc, "Length scale: rc in nm (needs a physical spacing)")
+      ->check(positive_value());
   app->add_option("--rc-per-voxel", a->rc_per_voxel,
                   "Length scale: rc per voxel edge along x (without it or --nm-per-rc: chosen so "
-                  "the critical pore diameter, the throats, is resolved, docs/accuracy.md)");
+                  "the critical pore diameter, the throats, is resolved, docs/accuracy.md)")
+      ->check(positive_value());
   app->add_option("--flow-axis", a->flow_axis, "x (default), y or z")
       ->check(CLI::IsMember({"x", "y", "z"}));
   app->add_option("--layout", a->layout,

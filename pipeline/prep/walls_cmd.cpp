@@ -7,6 +7,7 @@
 
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
+#include "pipeline/cli_counts.h"
 #include "pipeline/prep/common.h"
 #include "voxel/phase_grids.h"
 #include "voxel/pore_analysis.h"
@@ -179,9 +180,11 @@ Command add_walls_command(CLI::App& rockprep) {
       "(DIR/walls.json); refuses when the estimate exceeds --max-particles");
   args->input.add_to(app);
   app->add_option("--nm-per-rc", args->nm_per_rc,
-                  "Length scale: rc in nanometres (physical nanopores; needs a physical spacing)");
+                  "Length scale: rc in nanometres (physical nanopores; needs a physical spacing)")
+      ->check(positive_value());
   app->add_option("--rc-per-voxel", args->rc_per_voxel,
-                  "Length scale: rc per voxel edge along x (scale-free Stokes regime)");
+                  "Length scale: rc per voxel edge along x (scale-free Stokes regime)")
+      ->check(positive_value());
   app->add_option("--thickness-rc", args->thickness_rc,
                   "Wall thickness in rc, at least the mDPD cutoff 1 (default 1)");
   app->add_option("--max-particles", args->max_particles,

@@ -385,6 +385,7 @@ TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
     std::string v(512, '\3');
     for (int k : {4 * 64 + 4 * 8 + 3, 4 * 64 + 4 * 8 + 4}) v[static_cast<size_t>(k)] = '\1';
     std::ofstream(tmp / "closed.raw", std::ios::binary) << v;
+    std::ofstream(tmp / "open.raw", std::ios::binary) << std::string(512, '\1');  // all pore
   }
   const std::string cd = "cd " + shell_quote(tmp.path().string()) + " && " + rockprep();
   struct Case {
@@ -393,6 +394,8 @@ TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
   const std::vector<Case> cases = {
       {"run syn/truth.mhd --rc-per-voxel 0.5 --nm-per-rc 2 --out o", "length scale"},
       {"run syn/truth.mhd --rc-per-voxel -1 --out o", "must be positive"},
+      {"run syn/truth.mhd --rc-per-voxel 0 --out o", "--rc-per-voxel: must be positive"},
+      {"run syn/truth.mhd --nm-per-rc 0 --out o", "--nm-per-rc: must be positive"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --max-particles 100 --tiles " +
            shell_quote(small_db().string()) + " --out o",
        "max-particles"},
@@ -419,6 +422,10 @@ TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
        "0.5 --layout permeability --tiles " +
            shell_quote(small_db().string()) + " --out o",
        "no pore cluster joins the block's faces along x"},
+      {"run open.raw --shape 8,8,8 --dtype uint8 --labels 1=pore --rc-per-voxel 0.5 --layout "
+       "permeability --tiles " +
+           shell_quote(small_db().string()) + " --out o",
+       "a sample without solid has no permeability"},
   };
   for (const Case& c : cases) {
     const CommandResult r = run_command(cd + " " + c.args, tmp.path());

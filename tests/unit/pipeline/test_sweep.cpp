@@ -286,4 +286,29 @@ TEST(SweepCli, BadListsAndNegativeCountsAreRefusedBeforeAnyStep) {
   EXPECT_FALSE(fs::exists(dir / "o" / "sweep.json"));
 }
 
+// The slit without its wall: nothing resists the flow, so there is no permeability to report (an
+// all-pore sample used to get k = 3.3 rc^2). Refused before any step.
+TEST(SweepCli, ASampleWithoutSolidIsRefused) {
+  TempDir dir;
+  std::string text = kSlit;
+  const std::string wall_block =
+      "[[init]]\nkind = \"lattice\"\ntype = \"wall\"\ndensity = 8.0\nhi = [4.0, 4.0, 1.5]\n";
+  const auto at = text.find(wall_block);
+  ASSERT_NE(at, std::string::npos);
+  text.erase(at, wall_block.size());
+  const fs::path scene = dir / "bulk.toml";
+  std::ofstream(scene) << text;
+  const CommandResult r = mesorock::test::run_command(
+      mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
+          mesorock::test::shell_quote(scene.string()) + " --out " +
+          mesorock::test::shell_quote((dir / "o").string()) +
+          " --forces 0.01 --viscosity 7 --threads 1",
+      dir.path());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("a sample without solid has no permeability"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("bulk.toml"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("MPS/s"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "o" / "sweep.json"));
+}
+
 }  // namespace
