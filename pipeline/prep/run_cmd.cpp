@@ -453,7 +453,9 @@ int run_run(const RunArgs& a) {
     packing::RoleSpec& r = roles[static_cast<std::size_t>(code - 1)];
     r.name = packing::flooding_role_name(code);
     r.type = layout.has_role(code) ? type_of(type) : 0;
-    r.fill = fill;
+    // A role the layout lacks (the permeability layout's slabs) packs nothing and needs no tiles:
+    // with tiles it stopped `--wall-fill lattice --fluid-fill random` ("no tiles").
+    r.fill = layout.has_role(code) ? fill : packing::Fill::Lattice;
     r.density = a.wall_density;
     r.tiles = wall_tiles;
     r.thermal = false;

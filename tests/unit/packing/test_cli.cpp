@@ -170,6 +170,26 @@ TEST(PackingCli, RunWritesParticlesAndASceneThatRockflowRuns) {
 // one fluid type driven along x, walls as in the flooding layout, and nothing else; the scene is
 // accepted by the reader, `rockflow run` and `rockflow sweep` (which finds the driven type, the
 // axis and the fluid density in it).
+// Without any tiles (lattice walls, random fluid): the permeability layout has no slabs, so it
+// needs none of their tiles (it stopped with "role 'pushing slab': no tiles"; issue 22, item 7).
+TEST(PackingCli, RunPermeabilityLayoutPacksWithoutTiles) {
+  TempDir tmp;
+  make_stack(tmp);
+  const std::string cd = "cd " + shell_quote(tmp.path().string()) + " && ";
+  const CommandResult r = run_command(
+      cd + rockprep() +
+          " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --wall-fill lattice"
+          " --fluid-fill random --seed 5 --out perm",
+      tmp.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto run = nlohmann::json::parse(mesorock::test::read_file(tmp / "perm" / "run.json"));
+  EXPECT_EQ(run["layout"]["kind"], "permeability");
+  EXPECT_TRUE(fs::exists(tmp / "perm" / "particles.h5"));
+  EXPECT_TRUE(fs::exists(tmp / "perm" / "solid.h5"));
+  const pipeline::Scene scene = pipeline::load_scene(tmp / "perm" / "scene.toml");
+  EXPECT_GE(scene.model.type_index("fluid"), 0);
+}
+
 TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   TempDir tmp;
   make_stack(tmp);
