@@ -134,6 +134,7 @@ std::vector<T> read_array(hid_t group, const std::string& name, const std::strin
   Handle space = checked(H5Dget_space(ds.get()), H5Sclose, file, where, "cannot read dataspace");
   const auto dims = extent(space.get(), file, where);
   if (dims.size() != 1) fail(file, where, "expected a 1-D dataset, got " + dims_text(dims));
+  check_declared_size(ds.get(), dims, sizeof(T), file, where);
   std::vector<T> out(static_cast<size_t>(dims[0]));
   if (!out.empty())
     check(H5Dread(ds.get(), mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), file, where,

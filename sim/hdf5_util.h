@@ -175,6 +175,29 @@ inline std::vector<hsize_t> extent(hid_t space, const std::string& file, const s
   return dims;
 }
 
+// A dataset's declared size, checked before anything is allocated for it: a forged extent (1e12
+// or 2^62 rows) used to reach std::vector ("out of memory", or "cannot create std::vector larger
+// than max_size()"). The file bounds it: deflate, the only filter our writers use, packs at most
+// 1032:1, so no dataset of a file holds more than 1032 times the file's size (plus 1 MiB).
+inline void check_declared_size(hid_t ds, const std::vector<hsize_t>& dims,
+                                std::size_t element_bytes, const std::string& file,
+                                const std::string& where) {
+  double bytes = static_cast<double>(element_bytes);
+  for (hsize_t d : dims) bytes *= static_cast<double>(d);
+  hsize_t file_bytes = 0;
+  const hid_t f = H5Iget_file_id(ds);
+  if (f >= 0) {
+    if (H5Fget_filesize(f, &file_bytes) < 0) file_bytes = 0;
+    H5Fclose(f);
+  }
+  if (bytes > 1032.0 * static_cast<double>(file_bytes) + 1048576.0) {
+    std::ostringstream s;
+    s << "declares " << dims_text(dims) << " (" << bytes << " bytes), more than the " << file_bytes
+      << "-byte file can hold";
+    fail(file, where, s.str());
+  }
+}
+
 inline const char* class_name(H5T_class_t c) {
   switch (c) {
     case H5T_INTEGER:

@@ -49,6 +49,7 @@ std::vector<T> read_dataset(hid_t group, const char* name, hid_t mem_type, H5T_c
     fail(file, where,
          std::string("expected shape ") + (cols == 0 ? "[N]" : "[N," + std::to_string(cols) + "]") +
              ", got " + dims_text(dims));
+  check_declared_size(ds.get(), dims, sizeof(T), file, where);
   const hsize_t rows = dims[0];
   if (expect_rows && rows != *expect_rows)
     fail(file, where,

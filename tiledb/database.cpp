@@ -169,6 +169,7 @@ std::vector<T> get_dataset(hid_t g, const char* name, hid_t mem_type, hsize_t co
   const auto dims = extent(space.get(), file, w);
   const bool ok = cols == 0 ? dims.size() == 1 : (dims.size() == 2 && dims[1] == cols);
   if (!ok) fail(file, w, "unexpected shape " + dims_text(dims));
+  check_declared_size(ds.get(), dims, sizeof(T), file, w);
   std::vector<T> out(static_cast<std::size_t>(dims[0] * (cols == 0 ? 1 : cols)));
   if (!out.empty())
     check(H5Dread(ds.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), file, w,

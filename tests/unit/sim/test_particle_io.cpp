@@ -85,7 +85,46 @@ void replace_dataset(const fs::path& file, const char* name, hid_t type,
   H5Fclose(f);
 }
 
+// Replaces /particles/<name> with a chunked dataset that declares `dims` and stores nothing (a
+// forged extent: the file stays small).
+void declare_dataset(const fs::path& file, const char* name, const std::vector<hsize_t>& dims) {
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  hid_t g = H5Gopen2(f, "particles", H5P_DEFAULT);
+  ASSERT_GE(g, 0);
+  ASSERT_GE(H5Ldelete(g, name, H5P_DEFAULT), 0);
+  hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
+  hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+  const std::vector<hsize_t> chunk(dims.size(), 1);
+  ASSERT_GE(H5Pset_chunk(dcpl, static_cast<int>(chunk.size()), chunk.data()), 0);
+  hid_t ds = H5Dcreate2(g, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+  ASSERT_GE(ds, 0);
+  H5Dclose(ds);
+  H5Pclose(dcpl);
+  H5Sclose(space);
+  H5Gclose(g);
+  H5Fclose(f);
+}
+
 }  // namespace
+
+// A forged row count is refused before any allocation, naming the file and the dataset (it was
+// "out of memory" at 1e12 rows and an internal error at 2^62; issue 22, item 3).
+TEST(ParticleIo, DeclaredRowsBeyondWhatTheFileHoldsAreRefusedBeforeAllocating) {
+  TempDir dir;
+  const fs::path file = dir.path() / "p.h5";
+  for (const hsize_t rows : {hsize_t{1000000000000ull}, hsize_t{1} << 62}) {
+    write_particle_file(file, sample_set(100), sample_meta());
+    declare_dataset(file, "position", {rows, 3});
+    const std::string e = error_of([&] { read_particle_file(file); });
+    EXPECT_EQ(e.rfind(file.string() + ": /particles/position: declares [" + std::to_string(rows) +
+                          ",3]",
+                      0),
+              0u)
+        << e;
+    EXPECT_NE(e.find("-byte file can hold"), std::string::npos) << e;
+  }
+}
 
 TEST(ParticleIo, RoundTripKeepsEveryValueAndAttribute) {
   TempDir dir;
