@@ -179,15 +179,24 @@ TEST(PackingCli, RunPermeabilityLayoutPacksWithoutTiles) {
   const CommandResult r = run_command(
       cd + rockprep() +
           " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --wall-fill lattice"
-          " --fluid-fill random --seed 5 --out perm",
+          " --fluid-fill random --seed 5 --out deep/er/perm",  // --out's parents are created
       tmp.path());
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const auto run = nlohmann::json::parse(mesorock::test::read_file(tmp / "perm" / "run.json"));
+  const fs::path out = tmp / "deep" / "er" / "perm";
+  const auto run = nlohmann::json::parse(mesorock::test::read_file(out / "run.json"));
   EXPECT_EQ(run["layout"]["kind"], "permeability");
-  EXPECT_TRUE(fs::exists(tmp / "perm" / "particles.h5"));
-  EXPECT_TRUE(fs::exists(tmp / "perm" / "solid.h5"));
-  const pipeline::Scene scene = pipeline::load_scene(tmp / "perm" / "scene.toml");
+  EXPECT_TRUE(fs::exists(out / "particles.h5"));
+  EXPECT_TRUE(fs::exists(out / "solid.h5"));
+  const pipeline::Scene scene = pipeline::load_scene(out / "scene.toml");
   EXPECT_GE(scene.model.type_index("fluid"), 0);
+  // A parent that is a file is named, and nothing is written.
+  std::ofstream(tmp / "afile") << "x";
+  const CommandResult bad = run_command(
+      cd + rockprep() + " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability" +
+          " --wall-fill lattice --fluid-fill random --out afile/perm",
+      tmp.path());
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("afile is a file, not a folder"), std::string::npos) << bad.err;
 }
 
 TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
