@@ -39,12 +39,6 @@ PermeabilityLayout build_permeability_layout(voxel::Volume labels, const Permeab
   L.block_voxels = bs.voxels();
   keep_spanning_pores_and_count(labels, a, o.connected_only, o.connectivity, "permeability layout",
                                 "the block's faces", L);
-  // A sample without solid has no permeability: its driven fluid would accelerate without bound
-  // (an all-pore image used to pack, and its sweep reported k = 3.3 rc^2).
-  if (L.solid_voxels == 0)
-    throw ConfigError("permeability layout: the block has no solid voxel (" +
-                      std::to_string(L.pore_voxels) +
-                      " pore voxels), and a sample without solid has no permeability");
 
   // The box padded on every side by the wall layers with its periodic images: a box voxel c
   // along axis k comes from block voxel c (or, mirrored, 2n - 1 - c for c >= n), and a padded

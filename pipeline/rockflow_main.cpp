@@ -14,7 +14,7 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
-#include "pipeline/cli_counts.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/bench.h"
 #include "pipeline/flow/interrupt.h"
@@ -305,24 +305,20 @@ int main(int argc, char** argv) {
       const mp::Scene scene = mp::load_scene(sweep_scene);
       sc.out_dir = sweep_out;
       sc.run.sim = so;
+      // Every item, empty ones too: "0.01,,0.02" is a typo, not two forces.
       auto split = [](const std::string& text) {
         std::vector<std::string> out;
-        std::string item;
-        std::istringstream in(text);
-        while (std::getline(in, item, ','))
-          if (!item.empty()) out.push_back(item);
-        return out;
+        for (std::size_t start = 0;;) {
+          const std::size_t comma = text.find(',', start);
+          out.push_back(text.substr(start, comma - start));
+          if (comma == std::string::npos) return out;
+          start = comma + 1;
+        }
       };
-      // Every item of the list must be a number: "0.01,,0.02" is a typo, not two forces.
-      for (std::string rest = forces_text + ",";;) {
-        const auto comma = rest.find(',');
-        if (comma == std::string::npos) break;
-        if (rest.find_first_not_of(" \t") == comma)
+      for (const auto& f : split(forces_text)) {
+        if (f.find_first_not_of(" \t") == std::string::npos)
           throw mesorock::ConfigError("sweep: --forces '" + forces_text +
                                       "': an empty item (forces are comma-separated numbers)");
-        rest.erase(0, comma + 1);
-      }
-      for (const auto& f : split(forces_text)) {
         try {
           size_t used = 0;
           sc.forces.push_back(std::stod(f, &used));
@@ -331,7 +327,7 @@ int main(int argc, char** argv) {
           throw mesorock::ConfigError("sweep: --forces: '" + f + "' is not a number");
         }
       }
-      sc.types = split(types_text);
+      if (!types_text.empty()) sc.types = split(types_text);
       if (fluid_density != 0) sc.fluid_density = fluid_density;
       if (viscosity != 0) sc.viscosity = viscosity;
       if (viscosity_error != 0) sc.viscosity_error = viscosity_error;

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "mesorock/version.h"
-#include "pipeline/cli_counts.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/prep/common.h"
 

@@ -217,17 +217,12 @@ void check_output_folder(const std::string& out) {
   const fs::path p(out);
   // Missing parents are created, as users expect of --out (mkdir -p); a parent that is a file is
   // named. Only the folders: the outputs themselves are staged and renamed when complete.
-  for (fs::path q = p.parent_path(); !q.empty(); q = q.parent_path()) {
-    if (fs::exists(q)) {
-      if (!fs::is_directory(q)) throw IoError(out + ": " + q.string() + " is a file, not a folder");
-      break;
-    }
-    if (q == q.parent_path()) break;
-  }
-  if (!p.parent_path().empty()) {
-    std::error_code ec;
-    fs::create_directories(p.parent_path(), ec);
-    if (ec) throw IoError(out + ": cannot create its parent folder: " + ec.message());
+  std::error_code ec;
+  if (!p.parent_path().empty() && !fs::create_directories(p.parent_path(), ec) && ec) {
+    for (fs::path q = p.parent_path(); !q.empty() && q != q.parent_path(); q = q.parent_path())
+      if (fs::exists(q) && !fs::is_directory(q))
+        throw IoError(out + ": " + q.string() + " is a file, not a folder");
+    throw IoError(out + ": cannot create its parent folder: " + ec.message());
   }
   if (std::filesystem::exists(p) && !std::filesystem::is_directory(p)) {
     throw IoError(out + ": exists and is not a folder");

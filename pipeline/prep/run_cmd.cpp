@@ -23,7 +23,7 @@
 #include "packing/pack.h"
 #include "packing/permeability.h"
 #include "packing/sink.h"
-#include "pipeline/cli_counts.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/prep/common.h"
 #include "pipeline/prep/flooding_scene.h"
 #include "pipeline/prep/packing_common.h"
@@ -259,7 +259,7 @@ int run_run(const RunArgs& a) {
   }
   const voxel::Shape shape = labels.shape();
   // A sample without solid has no permeability (its driven fluid would accelerate without bound):
-  // refused before any work (packing::build_permeability_layout refuses it too).
+  // refused before any work.
   if (permeability) {
     const voxel::PhaseCounts counts = voxel::count_phases(labels);
     if (counts.voxels[2] + counts.voxels[3] == 0)

@@ -7,7 +7,7 @@
 
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
-#include "pipeline/cli_counts.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/prep/common.h"
 #include "voxel/phase_grids.h"
 #include "voxel/pore_analysis.h"

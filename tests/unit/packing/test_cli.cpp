@@ -191,10 +191,10 @@ TEST(PackingCli, RunPermeabilityLayoutPacksWithoutTiles) {
   EXPECT_GE(scene.model.type_index("fluid"), 0);
   // A parent that is a file is named, and nothing is written.
   std::ofstream(tmp / "afile") << "x";
-  const CommandResult bad = run_command(
-      cd + rockprep() + " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability" +
-          " --wall-fill lattice --fluid-fill random --out afile/perm",
-      tmp.path());
+  const CommandResult bad =
+      run_command(cd + rockprep() + " run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability" +
+                      " --wall-fill lattice --fluid-fill random --out afile/perm",
+                  tmp.path());
   EXPECT_EQ(bad.exit_code, 2) << bad.err;
   EXPECT_NE(bad.err.find("afile is a file, not a folder"), std::string::npos) << bad.err;
 }

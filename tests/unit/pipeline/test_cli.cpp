@@ -51,7 +51,8 @@ TEST(RockflowCli, BadUsageExitsTwo) {
                            "bench --threads 100000"}) {
     const CommandResult r = rockflow(args);
     EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
-    EXPECT_NE(r.err.find(std::string(args).substr(6, 7)), std::string::npos) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string(args).substr(6, 7)), std::string::npos)
+        << args << ": " << r.err;
   }
   EXPECT_EQ(rockflow("run /no/such/scene.toml").exit_code, 2);
   EXPECT_EQ(rockflow("--version").exit_code, 0);

@@ -241,13 +241,18 @@ TEST(SweepCli, TinySweepWritesItsOutputsAndReusesTheCalibration) {
   EXPECT_EQ(k.at("points"), j.at("points"));
 }
 
+// `rockflow sweep SCENE --out DIR/o`, the start of the refusal tests' command lines.
+std::string sweep_into_o(const fs::path& scene, const TempDir& dir) {
+  return mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
+         mesorock::test::shell_quote(scene.string()) + " --out " +
+         mesorock::test::shell_quote((dir / "o").string());
+}
+
 TEST(SweepCli, BadInputIsOneLineAndExitTwo) {
   TempDir dir;
   const fs::path scene = dir / "slit.toml";
   std::ofstream(scene) << kSlit;
-  const std::string base = mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
-                           mesorock::test::shell_quote(scene.string()) + " --out " +
-                           mesorock::test::shell_quote((dir / "o").string());
+  const std::string base = sweep_into_o(scene, dir);
   for (const std::string& args :
        {std::string(" --forces 0.1,abc"), std::string(" --forces 0"),
         std::string(" --forces 0.1 --types nosuch"), std::string(" --forces 0.1 --types wall")}) {
@@ -265,17 +270,15 @@ TEST(SweepCli, BadListsAndNegativeCountsAreRefusedBeforeAnyStep) {
   TempDir dir;
   const fs::path scene = dir / "slit.toml";
   std::ofstream(scene) << kSlit;
-  const std::string base = mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
-                           mesorock::test::shell_quote(scene.string()) + " --out " +
-                           mesorock::test::shell_quote((dir / "o").string()) +
-                           " --viscosity 7 --threads 1";
+  const std::string base = sweep_into_o(scene, dir) + " --viscosity 7 --threads 1";
   const std::pair<std::string, std::string> cases[] = {
       {" --forces 0.01,0.01", "given twice"},
       {" --forces 0.02,0.01,0.020", "given twice"},
       {" --forces 0.01,,0.02", "empty item"},
       {" --forces 0.01, ", "empty item"},
       {" --forces 0.01 --warmup -1 --block-steps 50 --window 2 --measure-blocks 2"
-       " --max-steps 1000", "--warmup"},
+       " --max-steps 1000",
+       "--warmup"},
       {" --forces 0.01 --max-steps 18446744073709551615", "--max-steps"}};
   for (const auto& [args, what] : cases) {
     const CommandResult r = mesorock::test::run_command(base + args, dir.path());
@@ -299,11 +302,7 @@ TEST(SweepCli, ASampleWithoutSolidIsRefused) {
   const fs::path scene = dir / "bulk.toml";
   std::ofstream(scene) << text;
   const CommandResult r = mesorock::test::run_command(
-      mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
-          mesorock::test::shell_quote(scene.string()) + " --out " +
-          mesorock::test::shell_quote((dir / "o").string()) +
-          " --forces 0.01 --viscosity 7 --threads 1",
-      dir.path());
+      sweep_into_o(scene, dir) + " --forces 0.01 --viscosity 7 --threads 1", dir.path());
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("a sample without solid has no permeability"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("bulk.toml"), std::string::npos) << r.err;

@@ -67,7 +67,9 @@ std::string error_of(const std::function<void()>& f) {
   return "<no IoError thrown>";
 }
 
-// Replaces /particles/<name> with a dataset of the given type, shape and raw data.
+// Replaces /particles/<name> with a dataset of the given type, shape and raw data; without data,
+// a chunked dataset that declares `dims` and stores nothing (a forged extent: the file stays
+// small).
 void replace_dataset(const fs::path& file, const char* name, hid_t type,
                      const std::vector<hsize_t>& dims, const void* data) {
   hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
@@ -76,29 +78,12 @@ void replace_dataset(const fs::path& file, const char* name, hid_t type,
   ASSERT_GE(g, 0);
   ASSERT_GE(H5Ldelete(g, name, H5P_DEFAULT), 0);
   hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
-  hid_t ds = H5Dcreate2(g, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  ASSERT_GE(ds, 0);
-  ASSERT_GE(H5Dwrite(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), 0);
-  H5Dclose(ds);
-  H5Sclose(space);
-  H5Gclose(g);
-  H5Fclose(f);
-}
-
-// Replaces /particles/<name> with a chunked dataset that declares `dims` and stores nothing (a
-// forged extent: the file stays small).
-void declare_dataset(const fs::path& file, const char* name, const std::vector<hsize_t>& dims) {
-  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-  ASSERT_GE(f, 0);
-  hid_t g = H5Gopen2(f, "particles", H5P_DEFAULT);
-  ASSERT_GE(g, 0);
-  ASSERT_GE(H5Ldelete(g, name, H5P_DEFAULT), 0);
-  hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
   hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
   const std::vector<hsize_t> chunk(dims.size(), 1);
-  ASSERT_GE(H5Pset_chunk(dcpl, static_cast<int>(chunk.size()), chunk.data()), 0);
-  hid_t ds = H5Dcreate2(g, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+  if (!data) ASSERT_GE(H5Pset_chunk(dcpl, static_cast<int>(chunk.size()), chunk.data()), 0);
+  hid_t ds = H5Dcreate2(g, name, type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
   ASSERT_GE(ds, 0);
+  if (data) ASSERT_GE(H5Dwrite(ds, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), 0);
   H5Dclose(ds);
   H5Pclose(dcpl);
   H5Sclose(space);
@@ -115,12 +100,12 @@ TEST(ParticleIo, DeclaredRowsBeyondWhatTheFileHoldsAreRefusedBeforeAllocating) {
   const fs::path file = dir.path() / "p.h5";
   for (const hsize_t rows : {hsize_t{1000000000000ull}, hsize_t{1} << 62}) {
     write_particle_file(file, sample_set(100), sample_meta());
-    declare_dataset(file, "position", {rows, 3});
+    replace_dataset(file, "position", H5T_NATIVE_DOUBLE, {rows, 3}, nullptr);
     const std::string e = error_of([&] { read_particle_file(file); });
-    EXPECT_EQ(e.rfind(file.string() + ": /particles/position: declares [" + std::to_string(rows) +
-                          ",3]",
-                      0),
-              0u)
+    EXPECT_EQ(
+        e.rfind(file.string() + ": /particles/position: declares [" + std::to_string(rows) + ",3]",
+                0),
+        0u)
         << e;
     EXPECT_NE(e.find("-byte file can hold"), std::string::npos) << e;
   }
