@@ -26,6 +26,7 @@
 #include "pipeline/flow/validation.h"
 #include "pipeline/scene.h"
 #include "sim/domain/communicator.h"
+#include "sim/particle_io.h"
 #include "sim/solid_grid.h"
 
 namespace mp = mesorock::pipeline;
@@ -111,6 +112,7 @@ int main(int argc, char** argv) {
   // Under mpirun every rank runs this program; MPI starts only then (a plain run never calls
   // MPI_Init). A rank that fails alone aborts the others, which would wait in a collective.
   ms::MpiSession mpi(&argc, &argv);
+  ms::skip_hdf5_exit_cleanup();
   const int code = mp::run_main("rockflow", [&]() -> int {
     CLI::App app{"rockflow: the mesorock mDPD flow solver"};
     app.set_version_flag("--version", std::string("rockflow ") + mesorock::kVersion + " (" +

@@ -10,9 +10,11 @@
 #include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/prep/common.h"
+#include "sim/particle_io.h"
 
 int main(int argc, char** argv) {
   namespace prep = mesorock::pipeline::prep;
+  mesorock::sim::skip_hdf5_exit_cleanup();
   return mesorock::pipeline::run_main("rockprep", [&]() -> int {
     prep::set_command_line(argc, argv);
     CLI::App app{"rockprep: turn a rock image stack into phase grids and particle sets"};

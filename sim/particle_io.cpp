@@ -223,6 +223,10 @@ void check_particles_writable(const ParticleSet& p, std::size_t ntypes_u, const 
 
 }  // namespace
 
+void skip_hdf5_exit_cleanup() {
+  H5dont_atexit();
+}
+
 void write_particle_file(const fs::path& path, const ParticleSet& p, const ParticleFileMeta& meta) {
   silence_hdf5_errors();
   const std::string file = path.string();

@@ -33,6 +33,12 @@ struct ParticleFileMeta {
   std::string git_commit;
 };
 
+// Call at the start of main() in every tool that writes HDF5. HDF5's exit-time cleanup closes the
+// files still open; after a failed close (a full disk) it flushes the broken file again and
+// crashes (SIGSEGV after our one-line error; found by the write-failure tests). Skipping it is
+// safe: the operating system reclaims the rest, and our outputs are renamed only when complete.
+void skip_hdf5_exit_cleanup();
+
 // Writes `p` to `path` atomically (temporary file + rename): on failure `path` is untouched and
 // no temporary is left behind. Every p.type must index meta.type_names; positions and velocities
 // must be finite (else IoError before anything is written).

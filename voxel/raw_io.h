@@ -14,11 +14,10 @@
 #include <nlohmann/json.hpp>
 
 #include "voxel/io_common.h"
+#include "voxel/staged_output.h"
 #include "voxel/volume.h"
 
 namespace mesorock::voxel {
-
-class StagedOutputs;
 
 struct RawOptions {
   Shape shape;                  // (nz, ny, nx), required

@@ -11,11 +11,10 @@
 #include <vector>
 
 #include "voxel/io_common.h"
+#include "voxel/staged_output.h"
 #include "voxel/volume.h"
 
 namespace mesorock::voxel {
-
-class StagedOutputs;
 
 // Orders file names as people number slices: "slice_2" before "slice_10".
 bool natural_less(const std::string& a, const std::string& b);

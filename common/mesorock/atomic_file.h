@@ -32,15 +32,22 @@ inline void write_atomically(const std::filesystem::path& target,
   }
 }
 
+// Writes `text` to `path` (no rename), checking the writes and the close; errors name `display`
+// (the file the user knows; `path` may be its temporary name).
+inline void write_text_file(const std::filesystem::path& path, const std::string& text,
+                            const std::filesystem::path& display = {}) {
+  const std::string name = (display.empty() ? path : display).string();
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw IoError(name + ": cannot open for writing");
+  out << text;
+  out.close();
+  if (!out) throw IoError(name + ": write failed");
+}
+
 // Convenience for text files.
 inline void write_text_atomically(const std::filesystem::path& target, const std::string& text) {
-  write_atomically(target, [&](const std::filesystem::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw IoError(target.string() + ": cannot open for writing");
-    out << text;
-    out.close();
-    if (!out) throw IoError(target.string() + ": write failed");
-  });
+  write_atomically(target,
+                   [&](const std::filesystem::path& tmp) { write_text_file(tmp, text, target); });
 }
 
 }  // namespace mesorock

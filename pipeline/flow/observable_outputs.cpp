@@ -32,8 +32,9 @@ nlohmann::json units_json(const std::optional<sim::UnitSystem>& units) {
   return j;
 }
 
-void write_binned_outputs(const fs::path& out_dir, const BinnedOutputSpec& spec,
-                          const sim::BinnedAverage& average, const ObservableOutputMeta& meta) {
+void write_binned_outputs(StagedOutputs& outputs, const fs::path& out_dir,
+                          const BinnedOutputSpec& spec, const sim::BinnedAverage& average,
+                          const ObservableOutputMeta& meta) {
   const sim::BinGrid& g = average.grid();
   sim::FieldFileMeta fm;
   fm.step = meta.step;
@@ -62,9 +63,12 @@ void write_binned_outputs(const fs::path& out_dir, const BinnedOutputSpec& spec,
                                              {"vz", "rc/tau", u[2].mean, u[2].error},
                                              {"temperature", "kBT", T.mean, T.error}};
     const fs::path h5 = out_dir / (spec.name + ".h5");
-    sim::write_profile_file(h5, a, edges, fields, fm);
-    sim::write_profile_xdmf(out_dir / (spec.name + ".xmf"), h5, a, edges, fields, meta.time);
-    sim::write_profile_csv(out_dir / (spec.name + ".csv"), a, edges, fields, fm);
+    outputs.write(h5, [&](const fs::path& p) { sim::write_profile_file(p, a, edges, fields, fm); });
+    outputs.write(out_dir / (spec.name + ".xmf"), [&](const fs::path& p) {
+      sim::write_profile_xdmf(p, h5, a, edges, fields, meta.time);
+    });
+    outputs.write(out_dir / (spec.name + ".csv"),
+                  [&](const fs::path& p) { sim::write_profile_csv(p, a, edges, fields, fm); });
     return;
   }
   sim::FieldGrid grid;
@@ -85,8 +89,9 @@ void write_binned_outputs(const fs::path& out_dir, const BinnedOutputSpec& spec,
       {"velocity", 3, "rc/tau", vector_of(false)}, {"velocity_error", 3, "rc/tau", vector_of(true)},
       {"temperature", 1, "kBT", T.mean},           {"temperature_error", 1, "kBT", T.error}};
   const fs::path h5 = out_dir / (spec.name + ".h5");
-  sim::write_field_file(h5, grid, fields, fm);
-  sim::write_field_xdmf(out_dir / (spec.name + ".xmf"), h5, grid, fields, meta.time);
+  outputs.write(h5, [&](const fs::path& p) { sim::write_field_file(p, grid, fields, fm); });
+  outputs.write(out_dir / (spec.name + ".xmf"),
+                [&](const fs::path& p) { sim::write_field_xdmf(p, h5, grid, fields, meta.time); });
 }
 
 }  // namespace mesorock::pipeline

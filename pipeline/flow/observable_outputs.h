@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mesorock/staged_outputs.h"
 #include "pipeline/scene.h"
 #include "sim/observables.h"
 #include "sim/units.h"
@@ -21,10 +22,12 @@ struct ObservableOutputMeta {
   std::optional<sim::UnitSystem> units;  // recorded when the scene gives a physical scale
 };
 
-// A profile (spec.axis >= 0) becomes NAME.h5 + NAME.csv; a field becomes fields.h5 + fields.xmf.
-// Each holds density, velocity and temperature with their block-averaging error bars.
-void write_binned_outputs(const std::filesystem::path& out_dir, const BinnedOutputSpec& spec,
-                          const sim::BinnedAverage& average, const ObservableOutputMeta& meta);
+// A profile (spec.axis >= 0) becomes NAME.h5 + NAME.xmf + NAME.csv; a field becomes fields.h5 +
+// fields.xmf. Each holds density, velocity and temperature with their block-averaging error bars.
+// The files are staged in `outputs` (they take their names in out_dir when the run commits).
+void write_binned_outputs(StagedOutputs& outputs, const std::filesystem::path& out_dir,
+                          const BinnedOutputSpec& spec, const sim::BinnedAverage& average,
+                          const ObservableOutputMeta& meta);
 
 // The unit system a scene's [units] table describes (water-model particle mass by default).
 sim::UnitSystem unit_system_of(const UnitsSpec& spec);

@@ -11,8 +11,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "mesorock/atomic_file.h"
+#include "mesorock/checked_text_file.h"
 #include "mesorock/errors.h"
+#include "mesorock/staged_outputs.h"
 #include "mesorock/version.h"
 #include "pipeline/flow/checkpoint_io.h"
 #include "pipeline/flow/interrupt.h"
@@ -96,12 +97,26 @@ struct ScalarSeries {
   }
 };
 
-std::string read_whole_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+// A CSV series of the run (thermo.csv, regions.csv, ...): it grows under its staged name with
+// every write checked; each checkpoint records its text so far, and --resume starts it again from
+// that text. It takes its final name with the run's other outputs.
+struct CsvSeries : CheckedTextFile {
+  explicit CsvSeries(fs::path final_path, bool resumed_from_checkpoint = true)
+      : path(std::move(final_path)), resumed(resumed_from_checkpoint) {}
+  fs::path path;
+  bool resumed;  // false: the file starts afresh on --resume and is not in the checkpoint
+
+  // The rows written so far (flushed first), for the checkpoint record.
+  std::string text_so_far() {
+    flush();
+    std::ifstream in(temporary(), std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    if (!in.good() && !in.eof())
+      throw IoError(path.string() + ": cannot read back for the checkpoint");
+    return s.str();
+  }
+};
 
 // A region of [[output.regions]] being sampled: one single-bin grid per counted type.
 struct RegionRun {
@@ -133,8 +148,8 @@ std::vector<RegionRun> make_regions(const Scene& scene) {
 // slab across an axis, the flow rate through that plane); a saturation.csv row per region that
 // names saturation_of: S = n_type / n_counted and the recovery 1 - S.
 void sample_regions(sim::Simulation& sim, const Scene& scene, std::vector<RegionRun>& regions,
-                    std::uint64_t step, double time, const std::string& stage, std::ostream& rows,
-                    std::ostream& saturation, std::ostream& pressure) {
+                    std::uint64_t step, double time, const std::string& stage,
+                    CheckedTextFile& rows, CheckedTextFile& saturation, CheckedTextFile& pressure) {
   for (auto& r : regions) {
     if (step % r.spec->every != 0) continue;  // each region has its own interval
     double counted = 0, of_type = 0;
@@ -233,93 +248,71 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   particle_meta.provenance_json = provenance.dump();
   particle_meta.length_unit = "rc";
 
-  // thermo.csv grows during the run under its temporary name and is renamed at the end.
-  const fs::path thermo_path = o.out_dir / "thermo.csv";
-  const fs::path thermo_tmp = temporary_path_for(thermo_path);
-  std::ofstream thermo;
+  // Every output of the run is staged: the CSV series grow under temporary names, the end-of-run
+  // files are written under temporary names, and all take their final names together once
+  // everything is written (summary.json last). A failure anywhere leaves none of them behind.
+  StagedOutputs outputs = StagedOutputs::files();
+  // A fresh run replaces the folder's outputs: the last run's completion record goes now, so a
+  // failure cannot leave it beside this run's snapshots and checkpoint.
+  if (root && !resume) fs::remove(o.out_dir / "summary.json", ec);
+  const std::string banner =
+      std::string("# mesorock ") + kVersion + " (" + kGitCommit + "), scene " + scene.path.string();
+  auto open_series = [&](CsvSeries& s, const std::string& header, int precision) {
+    s.open(outputs.stage(s.path), s.path);
+    if (resume && s.resumed)
+      s << resume->record.text(s.path.filename().string());  // the rows so far, with header
+    else
+      s << header;
+    if (precision > 0) s.set_precision(precision);
+  };
+  CsvSeries thermo{o.out_dir / "thermo.csv"};
   LeakRecord leaks;  // the leak invariant at every thermo row (runs with a solid grid)
   const std::uint64_t thermo_every = scene.output.thermo_every;
-  if (thermo_every > 0 && root) {
-    thermo.open(thermo_tmp);
-    if (!thermo) throw IoError(thermo_path.string() + ": cannot open for writing");
-    if (resume) {
-      thermo << resume->record.text("thermo.csv");  // the rows so far, header included
-    } else {
-      thermo << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-             << scene.path.string()
-             << ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per volume\n";
-      thermo << "step,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,pz"
-             << (scene.model.solid.mask ? ",solid_inside,solid_max_depth" : "") << "\n";
-    }
-    thermo << std::setprecision(10);
-  }
-  // regions.csv and saturation.csv grow like thermo.csv, under temporary names.
+  if (thermo_every > 0 && root)
+    open_series(thermo,
+                banner +
+                    ", reduced units (rc = m = kBT = 1); stress = kinetic + pair virial per "
+                    "volume\nstep,time,stage,temperature,pressure,sxx,syy,szz,sxy,sxz,syz,px,py,"
+                    "pz" +
+                    (scene.model.solid.mask ? ",solid_inside,solid_max_depth" : "") + "\n",
+                10);
   std::vector<RegionRun> regions = make_regions(scene);
-  const fs::path regions_path = o.out_dir / "regions.csv";
-  const fs::path saturation_path = o.out_dir / "saturation.csv";
-  const fs::path pressure_path = o.out_dir / "region_pressure.csv";
-  std::ofstream region_rows, saturation_rows, pressure_rows;
+  CsvSeries region_rows{o.out_dir / "regions.csv"}, saturation_rows{o.out_dir / "saturation.csv"},
+      pressure_rows{o.out_dir / "region_pressure.csv"};
   bool any_saturation = false, any_pressure = false;
   for (const auto& r : regions) any_saturation = any_saturation || r.saturation_type >= 0;
   for (const auto& r : regions) any_pressure = any_pressure || r.spec->pressure;
   if (!regions.empty() && root) {
-    region_rows.open(temporary_path_for(regions_path));
-    if (!region_rows) throw IoError(regions_path.string() + ": cannot open for writing");
-    if (resume) {
-      region_rows << resume->record.text("regions.csv");
-    } else {
-      region_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                  << scene.path.string()
-                  << ", reduced units; flow_rate_a = sum v_a / L_a over the region (m = 1)\n";
-      region_rows << "step,time,stage,region,type,count,number_density,flow_rate_x,flow_rate_y,"
-                     "flow_rate_z\n";
-    }
-    region_rows << std::setprecision(10);
-    if (any_saturation) {
-      saturation_rows.open(temporary_path_for(saturation_path));
-      if (!saturation_rows) throw IoError(saturation_path.string() + ": cannot open for writing");
-      if (resume) {
-        saturation_rows << resume->record.text("saturation.csv");
-      } else {
-        saturation_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                        << scene.path.string()
-                        << ": saturation = share of the saturation_of type among the region's "
-                           "counted types; recovery = 1 - saturation\n";
-        saturation_rows << "step,time,stage,region,saturation,recovery,counted\n";
-      }
-      saturation_rows << std::setprecision(10);
-    }
-    if (any_pressure) {
-      pressure_rows.open(temporary_path_for(pressure_path));
-      if (!pressure_rows) throw IoError(pressure_path.string() + ": cannot open for writing");
-      if (resume) {
-        pressure_rows << resume->record.text("region_pressure.csv");
-      } else {
-        pressure_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                      << scene.path.string()
-                      << ": stress of the region's counted types = (sum of their m v v + half of "
-                         "each of their pair virials) / region volume; pressure = trace / 3\n";
-        pressure_rows << "step,time,stage,region,pressure,sxx,syy,szz,sxy,sxz,syz\n";
-      }
-      pressure_rows << std::setprecision(10);
-    }
+    open_series(region_rows,
+                banner +
+                    ", reduced units; flow_rate_a = sum v_a / L_a over the region (m = 1)\n"
+                    "step,time,stage,region,type,count,number_density,flow_rate_x,flow_rate_y,"
+                    "flow_rate_z\n",
+                10);
+    if (any_saturation)
+      open_series(saturation_rows,
+                  banner +
+                      ": saturation = share of the saturation_of type among the region's counted "
+                      "types; recovery = 1 - saturation\n"
+                      "step,time,stage,region,saturation,recovery,counted\n",
+                  10);
+    if (any_pressure)
+      open_series(pressure_rows,
+                  banner +
+                      ": stress of the region's counted types = (sum of their m v v + half of "
+                      "each of their pair virials) / region volume; pressure = trace / 3\n"
+                      "step,time,stage,region,pressure,sxx,syy,szz,sxy,sxz,syz\n",
+                  10);
   }
   // injection.csv: particles moved by each injection/ejection boundary, at every thermo row.
-  const fs::path injection_path = o.out_dir / "injection.csv";
-  std::ofstream injection_rows;
-  if (!scene.model.injections.empty() && thermo_every > 0 && root) {
-    injection_rows.open(temporary_path_for(injection_path));
-    if (!injection_rows) throw IoError(injection_path.string() + ": cannot open for writing");
-    if (resume) {
-      injection_rows << resume->record.text("injection.csv");
-    } else {
-      injection_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                     << scene.path.string()
-                     << ": injected = particles moved from the outlet box to the inlet box so "
-                        "far; missed = events that found no particle to eject\n";
-      injection_rows << "step,time,stage,boundary,type,injected,missed\n";
-    }
-  }
+  CsvSeries injection_rows{o.out_dir / "injection.csv"};
+  if (!scene.model.injections.empty() && thermo_every > 0 && root)
+    open_series(injection_rows,
+                banner +
+                    ": injected = particles moved from the outlet box to the inlet box so far; "
+                    "missed = events that found no particle to eject\n"
+                    "step,time,stage,boundary,type,injected,missed\n",
+                0);
   // The engine counts from its start; a resumed run adds what was counted before the checkpoint
   // (the picks themselves depend only on the seed, the step and the ids: they continue exactly).
   std::vector<double> injected_before(scene.model.injections.size(), 0.0),
@@ -350,36 +343,27 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           << "," << counts[k].injected << "," << counts[k].missed << "\n";
   };
   // slabs.csv: the rigid slabs at every thermo row.
-  const fs::path slabs_path = o.out_dir / "slabs.csv";
-  std::ofstream slab_rows;
-  if (!scene.model.rigid_slabs.empty() && thermo_every > 0 && root) {
-    slab_rows.open(temporary_path_for(slabs_path));
-    if (!slab_rows) throw IoError(slabs_path.string() + ": cannot open for writing");
-    if (resume) {
-      slab_rows << resume->record.text("slabs.csv");
-    } else {
-      slab_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                << scene.path.string()
-                << ": rigid slabs; position = mean coordinate of the slab's particles along its "
-                   "axis; force = pair forces + applied (pressure x cross-section)\n";
-      slab_rows << "step,time,stage,slab,axis,position,velocity,force,applied_force\n";
-    }
-    slab_rows << std::setprecision(10);
-  }
-  // balance.csv: a decomposed run's load balance at every thermo row (rank costs, max/mean).
-  const fs::path balance_path = o.out_dir / "balance.csv";
-  std::ofstream balance_rows;
+  CsvSeries slab_rows{o.out_dir / "slabs.csv"};
+  if (!scene.model.rigid_slabs.empty() && thermo_every > 0 && root)
+    open_series(slab_rows,
+                banner +
+                    ": rigid slabs; position = mean coordinate of the slab's particles along its "
+                    "axis; force = pair forces + applied (pressure x cross-section)\n"
+                    "step,time,stage,slab,axis,position,velocity,force,applied_force\n",
+                10);
+  // balance.csv: a decomposed run's load balance at every thermo row (rank costs, max/mean). It
+  // starts afresh on --resume (the rank count may differ).
+  CsvSeries balance_rows{o.out_dir / "balance.csv", false};
   std::vector<double> imbalance_series;
   if (sim->ranks() > 1 && thermo_every > 0 && root) {
-    balance_rows.open(temporary_path_for(balance_path));
-    if (!balance_rows) throw IoError(balance_path.string() + ": cannot open for writing");
-    balance_rows << "# mesorock " << kVersion << " (" << kGitCommit << "), scene "
-                 << scene.path.string() << ": " << sim->decomposition_report()
-                 << "; cost = sum over a rank's particles of neighbours x (1 frozen, 4.5 "
-                    "mobile); imbalance = max / mean cost\n";
-    balance_rows << "step,time,stage,imbalance";
-    for (int r = 0; r < sim->ranks(); ++r) balance_rows << ",cost_rank" << r;
-    balance_rows << "\n" << std::setprecision(8);
+    std::string columns = "step,time,stage,imbalance";
+    for (int r = 0; r < sim->ranks(); ++r) columns += ",cost_rank" + std::to_string(r);
+    open_series(balance_rows,
+                banner + ": " + sim->decomposition_report() +
+                    "; cost = sum over a rank's particles of neighbours x (1 frozen, 4.5 "
+                    "mobile); imbalance = max / mean cost\n" +
+                    columns + "\n",
+                8);
   }
   auto write_balance_rows = [&](std::uint64_t step, double t, const std::string& stage) {
     if (sim->ranks() < 2 || thermo_every == 0) return;
@@ -393,6 +377,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     for (double c : cost) balance_rows << "," << c;
     balance_rows << "\n";
   };
+  CsvSeries* const all_series[] = {&thermo,         &region_rows, &saturation_rows, &pressure_rows,
+                                   &injection_rows, &slab_rows,   &balance_rows};
   auto write_slab_rows = [&](std::uint64_t step, double t, const std::string& stage) {
     if (scene.model.rigid_slabs.empty() || thermo_every == 0) return;
     const auto slabs = sim->rigid_slabs();  // collective
@@ -425,15 +411,8 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   // Everything the outputs need to continue from this step (all outputs of it are written).
   auto save_checkpoint = [&]() {
     RunRecord rec;
-    for (auto [stream, name] :
-         {std::pair{&thermo, thermo_path}, std::pair{&region_rows, regions_path},
-          std::pair{&saturation_rows, saturation_path}, std::pair{&slab_rows, slabs_path},
-          std::pair{&pressure_rows, pressure_path}, std::pair{&injection_rows, injection_path}}) {
-      if (!stream->is_open()) continue;
-      stream->flush();
-      if (!*stream) throw IoError(name.string() + ": write failed");
-      rec.texts[name.filename().string()] = read_whole_file(temporary_path_for(name));
-    }
+    for (CsvSeries* s : all_series)
+      if (s->is_open() && s->resumed) rec.texts[s->path.filename().string()] = s->text_so_far();
     rec.numbers["time"] = {time};
     rec.numbers["run_seconds"] = {earlier_run_seconds +
                                   std::chrono::duration<double>(Clock::now() - t_run).count()};
@@ -522,9 +501,17 @@ void run_scene(const Scene& scene, const RunOptions& o) {
             if (ec) throw IoError(dir.string() + ": cannot create folder: " + ec.message());
             particle_meta.step = now;
             particle_meta.time = time;
+            // The pair appears together (a snapshot is complete in itself; a failure later
+            // in the run leaves it, and the checkpoint, in place).
+            StagedOutputs pair = StagedOutputs::files();
             const fs::path h5 = dir / (step_name(now) + ".h5");
-            sim::write_particle_file(h5, snapshot, particle_meta);
-            sim::write_particle_xdmf(dir / (step_name(now) + ".xmf"), h5, sim->size(), time);
+            pair.write(h5, [&](const fs::path& p) {
+              sim::write_particle_file(p, snapshot, particle_meta);
+            });
+            pair.write(dir / (step_name(now) + ".xmf"), [&](const fs::path& p) {
+              sim::write_particle_xdmf(p, h5, sim->size(), time);
+            });
+            pair.commit();
           }
         }
         if (averaged)
@@ -574,47 +561,23 @@ void run_scene(const Scene& scene, const RunOptions& o) {
       if (progress && isatty(STDERR_FILENO) && done > done_before) std::cerr << "\n";
     }
   } catch (...) {
-    thermo.close();
-    fs::remove(thermo_tmp, ec);
-    region_rows.close();
-    saturation_rows.close();
-    slab_rows.close();
-    pressure_rows.close();
-    injection_rows.close();
-    balance_rows.close();
-    fs::remove(temporary_path_for(balance_path), ec);
-    fs::remove(temporary_path_for(slabs_path), ec);
-    fs::remove(temporary_path_for(pressure_path), ec);
-    fs::remove(temporary_path_for(injection_path), ec);
-    fs::remove(temporary_path_for(regions_path), ec);
-    fs::remove(temporary_path_for(saturation_path), ec);
+    // The staged outputs are discarded with `outputs`; a checkpoint already written stays.
     throw;
   }
   const double run_seconds =
       earlier_run_seconds + std::chrono::duration<double>(Clock::now() - t_run).count();
-  if (thermo.is_open()) {
-    thermo.close();
-    fs::rename(thermo_tmp, thermo_path, ec);
-    if (ec) throw IoError(thermo_path.string() + ": cannot rename: " + ec.message());
-  }
-  for (auto [stream, path] :
-       {std::pair{&region_rows, regions_path}, std::pair{&saturation_rows, saturation_path},
-        std::pair{&slab_rows, slabs_path}, std::pair{&pressure_rows, pressure_path},
-        std::pair{&injection_rows, injection_path}, std::pair{&balance_rows, balance_path}}) {
-    if (!stream->is_open()) continue;
-    stream->close();
-    if (!*stream) throw IoError(path.string() + ": write failed");
-    fs::rename(temporary_path_for(path), path, ec);
-    if (ec) throw IoError(path.string() + ": cannot rename: " + ec.message());
-  }
+  for (CsvSeries* s : all_series) s->close();  // the last rows reach the disk here (checked)
 
   if (scene.output.final_snapshot) {
     particle_meta.step = sim->step();
     particle_meta.time = time;
     const sim::ParticleSet last = sim->particles();  // collective
     if (root) {
-      sim::write_particle_file(o.out_dir / "final.h5", last, particle_meta);
-      sim::write_particle_xdmf(o.out_dir / "final.xmf", o.out_dir / "final.h5", sim->size(), time);
+      const fs::path h5 = o.out_dir / "final.h5";
+      outputs.write(h5,
+                    [&](const fs::path& p) { sim::write_particle_file(p, last, particle_meta); });
+      outputs.write(o.out_dir / "final.xmf",
+                    [&](const fs::path& p) { sim::write_particle_xdmf(p, h5, sim->size(), time); });
     }
   }
 
@@ -628,7 +591,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
     meta.time = time;
     meta.provenance_json = provenance.dump();
     meta.units = units;
-    if (root) write_binned_outputs(o.out_dir, b.spec, b.average, meta);
+    if (root) write_binned_outputs(outputs, o.out_dir, b.spec, b.average, meta);
     binned_json[b.spec.name] = {
         {"samples", b.average.samples()}, {"blocks", b.average.blocks()}, {"every", b.spec.every}};
   }
@@ -716,7 +679,10 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   }
   if (resume) summary["resumed_from_step"] = resume->state.step;
   if (checkpoint_every > 0) summary["checkpoint_every"] = checkpoint_every;
-  if (root) write_text_atomically(o.out_dir / "summary.json", summary.dump(2) + "\n");
+  if (root) {
+    outputs.write_text(o.out_dir / "summary.json", summary.dump(2) + "\n");
+    outputs.commit();
+  }
   // The run is complete: its outputs hold the final state, and the checkpoint is spent.
   if (root) fs::remove(checkpoint_file, ec);
   if (progress)

@@ -9,6 +9,7 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "mesorock/plot.h"
+#include "mesorock/staged_outputs.h"
 #include "mesorock/version.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/progress.h"
@@ -440,6 +441,9 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   fs::create_directories(c.out_dir, ec);
   if (ec) throw IoError(c.out_dir.string() + ": cannot create output folder: " + ec.message());
 
+  // The four outputs appear together or not at all (sweep.json, written last, marks a complete
+  // sweep): each is staged under a temporary name and all are renamed at the end.
+  StagedOutputs outputs = StagedOutputs::files();
   // sweep.csv and sweep_blocks.csv
   {
     std::ostringstream s;
@@ -471,7 +475,7 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
       if (model.solid.mask) s << "," << p.leaks.max_inside << "," << p.leaks.max_depth;
       s << "\n";
     }
-    write_text_atomically(c.out_dir / "sweep.csv", s.str());
+    outputs.write_text(c.out_dir / "sweep.csv", s.str());
     std::ostringstream b;
     b << std::setprecision(10);
     b << "# flux J = sum v / V_total of each block of " << o.block_steps
@@ -481,7 +485,7 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
       for (size_t j = 0; j < points[k].block_flux.size(); ++j)
         b << k + 1 << "," << points[k].force << "," << j + 1 << ","
           << o.warmup_steps + (j + 1) * o.block_steps << "," << points[k].block_flux[j] << "\n";
-    write_text_atomically(c.out_dir / "sweep_blocks.csv", b.str());
+    outputs.write_text(c.out_dir / "sweep_blocks.csv", b.str());
   }
 
   // sweep.json
@@ -603,7 +607,6 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   for (int t = 0; t < model.ntypes(); ++t)
     if ((driven >> t) & 1u)
       summary["driven_types"].push_back(model.types[static_cast<size_t>(t)].name);
-  write_text_atomically(c.out_dir / "sweep.json", summary.dump(2) + "\n");
 
   // sweep.png: q against G with error bars, the Darcy line and the quadratic.
   {
@@ -638,8 +641,11 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
       }
       pl.more.push_back(quad);
     }
-    plot::write_plot_png(pl, c.out_dir / "sweep.png", (c.out_dir / "sweep.png").string());
+    const fs::path png = c.out_dir / "sweep.png";
+    plot::write_plot_png(pl, outputs.stage(png), png.string());
   }
+  outputs.write_text(c.out_dir / "sweep.json", summary.dump(2) + "\n");
+  outputs.commit();
   meter.finish("k = " + fmt(fits.k) + " +- " + fmt(fits.k_error, 2) + " rc^2" +
                (units ? " (" + fmt(fits.k * mD) + " mD)" : std::string()) + "; outputs in " +
                c.out_dir.string());

@@ -1,5 +1,6 @@
-#include "voxel/staged_output.h"
+#include "mesorock/staged_outputs.h"
 
+#include <string>
 #include <system_error>
 
 #include "mesorock/atomic_file.h"
@@ -7,7 +8,7 @@
 
 namespace fs = std::filesystem;
 
-namespace mesorock::voxel {
+namespace mesorock {
 
 StagedOutputs StagedOutputs::files() {
   return StagedOutputs();
@@ -20,9 +21,14 @@ StagedOutputs StagedOutputs::in_directory(const fs::path& dir) {
   if (fs::exists(dir, ec)) {
     if (!fs::is_directory(dir, ec)) throw IoError(dir.string() + ": exists and is not a folder");
   } else {
-    fs::path parent = dir.parent_path();
-    if (!parent.empty() && !fs::is_directory(parent, ec)) {
-      throw IoError(dir.string() + ": parent folder " + parent.string() + " does not exist");
+    // Missing parents are created, as users expect of --out (mkdir -p); a parent that is a file
+    // is named.
+    const fs::path parent = dir.parent_path();
+    if (!parent.empty() && !fs::create_directories(parent, ec) && ec) {
+      for (fs::path q = parent; !q.empty() && q != q.parent_path(); q = q.parent_path())
+        if (fs::exists(q, ec) && !fs::is_directory(q, ec))
+          throw IoError(dir.string() + ": " + q.string() + " is a file, not a folder");
+      throw IoError(dir.string() + ": cannot create its parent folder: " + ec.message());
     }
     out.staging_dir_ = temporary_path_for(dir);
     fs::remove_all(out.staging_dir_, ec);  // a leftover from a killed run
@@ -77,6 +83,25 @@ fs::path StagedOutputs::stage(const fs::path& target) {
   return temporary;
 }
 
+void StagedOutputs::write(const fs::path& target,
+                          const std::function<void(const fs::path&)>& write) {
+  const fs::path temporary = stage(target);
+  try {
+    write(temporary);
+  } catch (const IoError& e) {
+    std::string message = e.what();
+    const std::string from = temporary.string(), to = final_path(target).string();
+    for (size_t at = message.find(from); at != std::string::npos; at = message.find(from, at))
+      message.replace(at, from.size(), to), at += to.size();
+    throw IoError(message);
+  }
+}
+
+void StagedOutputs::write_text(const fs::path& target, const std::string& text) {
+  const fs::path temporary = stage(target);
+  write_text_file(temporary, text, final_path(target));
+}
+
 void StagedOutputs::commit() {
   std::error_code ec;
   if (!staging_dir_.empty()) {
@@ -107,4 +132,4 @@ void StagedOutputs::discard() noexcept {
   }
 }
 
-}  // namespace mesorock::voxel
+}  // namespace mesorock
