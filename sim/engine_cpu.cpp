@@ -158,16 +158,21 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     return s_->step;
   }
 
+  // Deterministic whatever the thread count: fixed blocks of particles are summed in parallel,
+  // each in particle order, and the block sums are added in block order. (Partial sums per thread
+  // added under `omp critical` made stress and pressure depend on the scheduling at round-off.)
   VirialSums virial(const VirialRegion<Real>& region) override {
     ThreadScope scope(threads_);
     const StepView<Real> v = s_->view();
     const int n = v.n;
-    VirialSums total;
-#pragma omp parallel
-    {
-      VirialSums local;
-#pragma omp for schedule(static)
-      for (int k = 0; k < n; ++k) {
+    constexpr int kBlock = 256;  // particles per block: a few kB of sums for 1 M particles
+    const int blocks = (n + kBlock - 1) / kBlock;
+    std::vector<VirialSums> partial(static_cast<size_t>(blocks));
+#pragma omp parallel for schedule(static)
+    for (int b = 0; b < blocks; ++b) {
+      VirialSums& local = partial[static_cast<size_t>(b)];
+      const int end = std::min(n, (b + 1) * kBlock);
+      for (int k = b * kBlock; k < end; ++k) {
         if (!region.contains(v, k)) continue;
         const auto w =
             virial_of_particle<Real, typename Terms::conservative, typename Terms::thermostat,
@@ -178,13 +183,14 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
           local.random[c] += w.random[c];
         }
       }
-#pragma omp critical
+    }
+    VirialSums total;
+    for (const VirialSums& local : partial)
       for (int c = 0; c < 6; ++c) {
         total.conservative[c] += local.conservative[c];
         total.dissipative[c] += local.dissipative[c];
         total.random[c] += local.random[c];
       }
-    }
     return total;
   }
 
