@@ -12,6 +12,7 @@ packages=(
   nlohmann-json3-dev libtiff-dev zlib1g-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-h5py python3-matplotlib
   clang libclang-rt-14-dev libomp-dev  # scripts/fuzz.sh: libFuzzer, ASan and UBSan runtimes
+  clang-format                         # scripts/check_format.sh (CI)
 )
 
 missing=()
