@@ -714,12 +714,7 @@ void read_injection(const Context& c, Table& top, Scene& s) {
     fail(c, "injection",
          "at most " + std::to_string(sim::kMaxInjections) + " blocks (got " +
              std::to_string(blocks.size()) + ")");
-  auto mobile = [&](int t) {
-    if (s.model.types[static_cast<size_t>(t)].frozen) return false;
-    for (const auto& r : s.model.rigid_slabs)
-      if (r.type == t) return false;
-    return true;
-  };
+  auto mobile = [&](int t) { return s.model.is_mobile(t); };
   for (size_t i = 0; i < blocks.size(); ++i) {
     Table t(c, *blocks[i], indexed("injection", i),
             {"type", "eject_types", "inlet_lo", "inlet_hi", "outlet_lo", "outlet_hi", "every",

@@ -109,13 +109,27 @@ struct Model {
   std::vector<RigidSlabSpec> rigid_slabs;      // at most kMaxRigidSlabs
   std::vector<InjectionSpec> injections;       // at most kMaxInjections
 
-  // The wall types of the wall model: the given ones, or every frozen type.
-  std::uint32_t wall_mask() const {
-    if (wall_model.wall_types != 0) return wall_model.wall_types;
+  // The frozen types (never moved, never integrated).
+  std::uint32_t frozen_mask() const {
     std::uint32_t m = 0;
     for (int t = 0; t < ntypes(); ++t)
       if (types[static_cast<size_t>(t)].frozen) m |= 1u << t;
     return m;
+  }
+  // The types that move freely: neither frozen nor the body of a rigid slab. Injection, ejection
+  // and the driven types of a sweep must be among them.
+  std::uint32_t mobile_mask() const {
+    std::uint32_t m = ~frozen_mask() & (ntypes() >= 32 ? ~0u : (1u << ntypes()) - 1u);
+    for (const RigidSlabSpec& r : rigid_slabs)
+      if (r.type >= 0 && r.type < 32) m &= ~(1u << r.type);
+    return m;
+  }
+  bool is_mobile(int type) const {
+    return type >= 0 && type < 32 && ((mobile_mask() >> type) & 1u);
+  }
+  // The wall types of the wall model: the given ones, or every frozen type.
+  std::uint32_t wall_mask() const {
+    return wall_model.wall_types != 0 ? wall_model.wall_types : frozen_mask();
   }
 
   int ntypes() const { return static_cast<int>(types.size()); }

@@ -178,21 +178,15 @@ void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, d
   for (size_t k = 0; k < m.injections.size(); ++k) {
     const InjectionSpec& q = m.injections[k];
     const std::string name = "injection " + std::to_string(k + 1);
-    auto mobile_fluid = [&](int t) {
-      if (m.types[static_cast<size_t>(t)].frozen) return false;
-      for (const RigidSlabSpec& r : m.rigid_slabs)
-        if (r.type == t) return false;
-      return true;
-    };
     if (q.inject_type < 0 || q.inject_type >= m.ntypes())
       throw ConfigError(name + ": injected type out of range");
-    if (!mobile_fluid(q.inject_type))
+    if (!m.is_mobile(q.inject_type))
       throw ConfigError(name + ": the injected type must be mobile (not frozen, not a slab)");
     if (q.eject_types == 0) throw ConfigError(name + ": no type may be ejected");
     for (int t = 0; t < 32; ++t) {
       if (!((q.eject_types >> t) & 1u)) continue;
       if (t >= m.ntypes()) throw ConfigError(name + ": ejected type out of range");
-      if (!mobile_fluid(t))
+      if (!m.is_mobile(t))
         throw ConfigError(name + ": ejected type " + m.types[static_cast<size_t>(t)].name +
                           " must be mobile (not frozen, not a slab)");
     }
@@ -296,12 +290,11 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
       t.sigma = static_cast<Real>(std::sqrt(2.0 * q.gamma * model.kBT));
     }
   s.body_force.resize(static_cast<size_t>(3 * nt));
-  for (int t = 0; t < nt; ++t) {
+  for (int t = 0; t < nt; ++t)
     for (int a = 0; a < 3; ++a)
       s.body_force[static_cast<size_t>(3 * t + a)] =
           static_cast<Real>(model.types[t].body_force[a]);
-    if (model.types[t].frozen) s.frozen_mask |= (1u << t);
-  }
+  s.frozen_mask = model.frozen_mask();
   for (int a = 0; a < 3; ++a) {
     s.box.lo[a] = static_cast<Real>(box.lo[a]);
     s.box.length[a] = static_cast<Real>(box.length(a));

@@ -51,6 +51,15 @@ using CompiledTermSets =
                          TermSetsFor<ConservativeMDPD<DensityKernelWarren>>,
                          TermSetsFor<ConservativeMDPD<DensityKernelLucy>>>::type;
 
+template <class List>
+struct ListSize;
+template <class... Ts>
+struct ListSize<TypeList<Ts...>> {
+  static constexpr int value = static_cast<int>(sizeof...(Ts));
+};
+// ARCHITECTURE.md and the comment above state this count; change them with it.
+static_assert(ListSize<CompiledTermSets>::value == 24, "update ARCHITECTURE.md's variant count");
+
 template <class Terms>
 bool term_set_matches(const Model& m) {
   using C = typename Terms::conservative;

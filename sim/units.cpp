@@ -25,8 +25,8 @@ void UnitSystem::validate() const {
   require_positive(mass_per_particle_kg, "mass per particle (kg)");
 }
 
-// tau = rc sqrt(m / kBT) (PHYSICS.md, "Unit conversion": the time unit follows from the mass and
-// energy units).
+// tau = rc sqrt(m / kBT) (docs/physics.md, "Unit conversion": the time unit follows from the mass
+// and energy units).
 double UnitSystem::tau_s() const {
   return rc_m() * std::sqrt(mass_per_particle_kg / kBT_J());
 }
@@ -45,7 +45,7 @@ double UnitSystem::pressure_pa(double reduced) const {
   const double rc = rc_m();
   return reduced * kBT_J() / (rc * rc * rc);
 }
-// PHYSICS.md, "Unit conversion": surface tension = gamma* kBT / rc^2.
+// docs/physics.md, "Unit conversion": surface tension = gamma* kBT / rc^2.
 double UnitSystem::surface_tension_n_per_m(double reduced) const {
   const double rc = rc_m();
   return reduced * kBT_J() / (rc * rc);
@@ -61,7 +61,7 @@ double UnitSystem::number_density_per_m3(double reduced) const {
   const double rc = rc_m();
   return reduced / (rc * rc * rc);
 }
-// PHYSICS.md, "Unit conversion": rho = rho* Nm M / (NA rc^3) = rho* m / rc^3.
+// docs/physics.md, "Unit conversion": rho = rho* Nm M / (NA rc^3) = rho* m / rc^3.
 double UnitSystem::mass_density_kg_per_m3(double reduced) const {
   const double rc = rc_m();
   return reduced * mass_per_particle_kg / (rc * rc * rc);
@@ -107,7 +107,7 @@ double particle_mass_kg(double molecules_per_particle, double molar_mass_g_per_m
   return molecules_per_particle * molar_mass_g_per_mol * 1e-3 / kAvogadroPerMol;
 }
 
-// PHYSICS.md, "Unit conversion": rc = (rho* Nm V)^(1/3), V in A^3; 1 A = 0.1 nm.
+// docs/physics.md, "Unit conversion": rc = (rho* Nm V)^(1/3), V in A^3; 1 A = 0.1 nm.
 double WaterModel::length_per_rc_nm() const {
   require_positive(reduced_density, "water model reduced density");
   require_positive(molecules_per_particle, "water model molecules per particle");

@@ -2,7 +2,7 @@
 // Reduced mDPD units (rc = m = kBT = 1) and their SI values.
 //
 // The solver works in reduced units: length rc (the cutoff), mass m (one DPD particle), energy
-// kBT. Every other unit follows from those three (PHYSICS.md, "Unit conversion"):
+// kBT. Every other unit follows from those three (docs/physics.md, "Unit conversion"):
 //
 //   time            tau = rc sqrt(m / kBT)          velocity        rc / tau = sqrt(kBT / m)
 //   force           kBT / rc                        acceleration    rc / tau^2 = kBT / (m rc)
@@ -11,7 +11,7 @@
 //   number density  1 / rc^3                        mass density    m / rc^3
 //   diffusivity     rc^2 / tau
 //
-// The length scale is an explicit input, never a hidden constant: PHYSICS.md records three
+// The length scale is an explicit input, never a hidden constant: docs/physics.md records three
 // different nm-per-rc values in the papers (0.852, 1.077 and about 4.1 nm). Every output that
 // carries physical units should record UnitSystem::describe().
 #include <string>
@@ -71,10 +71,11 @@ UnitSystem make_unit_system(double length_per_rc_nm, double temperature_K,
                             double mass_per_particle_kg);
 
 // Mass of one DPD particle that stands for `molecules_per_particle` molecules of the given molar
-// mass: Nm M / NA (PHYSICS.md, "Unit conversion": rho = rho* Nm M / (NA rc^3), i.e. m = Nm M / NA).
+// mass: Nm M / NA (docs/physics.md, "Unit conversion": rho = rho* Nm M / (NA rc^3), i.e. m = Nm M /
+// NA).
 double particle_mass_kg(double molecules_per_particle, double molar_mass_g_per_mol);
 
-// The papers' coarse-grained water (PHYSICS.md, "Unit conversion"; 2020 paper, section on the
+// The papers' coarse-grained water (docs/physics.md, "Unit conversion"; 2020 paper, section on the
 // liquid-vacuum interface): Nm = 3 water molecules per particle, V = 30 A^3 per molecule,
 // M = 18 g/mol (the value the paper states), liquid density rho* = 6.88 (A = -50, B = 25,
 // rd = 0.75).

@@ -36,9 +36,7 @@ const char* const kStressNames[6] = {"xx", "yy", "zz", "xy", "xz", "yz"};
 std::uint32_t type_mask_for(const Scene& scene, const std::vector<std::string>& names) {
   std::uint32_t mask = 0;
   if (names.empty()) {
-    for (int t = 0; t < scene.model.ntypes(); ++t)
-      if (!scene.model.types[static_cast<size_t>(t)].frozen) mask |= 1u << t;
-    for (const auto& r : scene.model.rigid_slabs) mask &= ~(1u << r.type);
+    mask = scene.model.mobile_mask();
   } else {
     for (const auto& n : names) mask |= 1u << scene.model.type_index(n);
   }

@@ -50,7 +50,7 @@ using namespace wall_liquid;
 using Clock = std::chrono::steady_clock;
 using Json = nlohmann::ordered_json;
 
-// Warren 2003's fit of the mDPD equation of state (PHYSICS.md; the eos-mdpd case).
+// Warren 2003's fit of the mDPD equation of state (docs/physics.md; the eos-mdpd case).
 double warren_pressure(double rho) {
   constexpr double alpha = 0.101, c = 4.16, d = 18;
   return rho + alpha * kA * rho * rho +

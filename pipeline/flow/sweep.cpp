@@ -304,12 +304,7 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
       const auto& f = model.types[static_cast<size_t>(t)].body_force;
       if (f[0] != 0 || f[1] != 0 || f[2] != 0) driven |= 1u << t;
     }
-    if (driven == 0)
-      for (int t = 0; t < model.ntypes(); ++t) {
-        bool slab = false;
-        for (const auto& r : model.rigid_slabs) slab = slab || r.type == t;
-        if (!model.types[static_cast<size_t>(t)].frozen && !slab) driven |= 1u << t;
-      }
+    if (driven == 0) driven = model.mobile_mask();
   }
   int axis = 0;
   if (!c.axis.empty()) {
@@ -325,10 +320,7 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   }
   check_forces(where, c.forces);
   for (int t = 0; t < model.ntypes(); ++t) {
-    if (!((driven >> t) & 1u)) continue;
-    bool slab = false;
-    for (const auto& r : model.rigid_slabs) slab = slab || r.type == t;
-    if (model.types[static_cast<size_t>(t)].frozen || slab)
+    if (((driven >> t) & 1u) && !model.is_mobile(t))
       throw ConfigError(where + ": driven type " + model.types[static_cast<size_t>(t)].name +
                         " does not flow (frozen or a rigid slab)");
   }

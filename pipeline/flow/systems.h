@@ -20,11 +20,11 @@ BuiltSystem make_bulk_mdpd(double A, double B, double rd, double gamma, double r
 BuiltSystem make_bulk_dpd(double a, double gamma, double rho, const double L[3],
                           std::uint64_t seed);
 
-// The 2020 paper's homogeneous porous benchmark (PHYSICS.md): cells of 16 x 2 x 16 rc, each with a
-// cylinder along y whose solid core (radius 7) is represented by a ring of frozen wall particles
-// (6 < r < 7, density 8) and fluid (density 6.2) outside the cylinder; cells tiled nx x nz in x-z,
-// odd rows (in z) shifted by Lx/2; A = -40 for all pairs, B = 25, rd = 0.75, gamma = 4.5,
-// g_z = 0.02 on the fluid, periodic. Returns about 1962 particles per cell.
+// The 2020 paper's homogeneous porous benchmark (docs/physics.md): cells of 16 x 2 x 16 rc, each
+// with a cylinder along y whose solid core (radius 7) is represented by a ring of frozen wall
+// particles (6 < r < 7, density 8) and fluid (density 6.2) outside the cylinder; cells tiled nx x
+// nz in x-z, odd rows (in z) shifted by Lx/2; A = -40 for all pairs, B = 25, rd = 0.75, gamma
+// = 4.5, g_z = 0.02 on the fluid, periodic. Returns about 1962 particles per cell.
 BuiltSystem make_porous_benchmark(int nx, int nz, std::uint64_t seed);
 
 }  // namespace mesorock::pipeline

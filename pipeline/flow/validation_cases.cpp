@@ -151,10 +151,10 @@ CaseResult run_eos_mdpd(const ValidateOptions& o) {
     const double sbox[3] = {big, big, big};
     const auto s = make_bulk_mdpd(-40, 25, 0.75, 4.5, rho, sbox, seed++, o.density_kernel);
     const auto m = measure_bulk(s, o, 0.01, sep, "eos-mdpd rho=4 (phase separation)");
-    const Quantity q =
-        judged("phase separation rho=4 (vapour bin fraction)", m.vapour_fraction, 0, 0.1, 0,
-               "PHYSICS.md: A = -40 coexists with vapour at liquid density 6.07; rho = 4 separates",
-               Comparison::AtLeast);
+    const Quantity q = judged(
+        "phase separation rho=4 (vapour bin fraction)", m.vapour_fraction, 0, 0.1, 0,
+        "docs/physics.md: A = -40 coexists with vapour at liquid density 6.07; rho = 4 separates",
+        Comparison::AtLeast);
     r.quantities.push_back(q);
     r.notes.push_back(q.pass ? "rho = 4: phase-separated into liquid and vapour (vapour bins " +
                                    fmt(m.vapour_fraction, 3) +

@@ -1,4 +1,4 @@
-// flooding-mini: the 2020 paper's miniature flooding set-up (Sec. 5.2; PHYSICS.md), small. A
+// flooding-mini: the 2020 paper's miniature flooding set-up (Sec. 5.2; docs/physics.md), small. A
 // porous block of grains (frozen-liquid walls with the wall model of Li et al. 2018) is filled
 // with the source fluid; a reservoir of source fluid behind it is held by a back-pressure slab,
 // and a reservoir of working fluid in front of it is pushed by a slab at a higher pressure. A

@@ -34,8 +34,8 @@ using Clock = std::chrono::steady_clock;
 // The liquid of both cases (2017 and 2020 papers) is validation.h's: A = -40, B = 25, rd = 0.75,
 // gamma = 4.5.
 
-// Coexistence density of the A = -40 liquid with its vapour (PHYSICS.md; the slab case measures
-// 6.069 at full size).
+// Coexistence density of the A = -40 liquid with its vapour (docs/physics.md; the slab case
+// measures 6.069 at full size).
 constexpr double kLiquidDensity = 6.07;
 
 // Sum of the interface tensions of a film that is flat in y-z, from one stress sample:
@@ -791,7 +791,7 @@ CaseResult run_contact_angle(const ValidateOptions& o) {
   for (const auto& run : runs)
     r.quantities.push_back(judged("bulk liquid density A_SL=" + fmt(run.A_SL, 3),
                                   run.field.bulk_density, 0, kLiquidDensity, 0.15,
-                                  "PHYSICS.md: the A = -40 liquid coexists with its vapour at "
+                                  "docs/physics.md: the A = -40 liquid coexists with its vapour at "
                                   "6.07 (the slab case: 6.069); 0.15"));
   {
     const ContactRun& w = run_at(-35);

@@ -43,8 +43,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
         throw ConfigError("a decomposed run needs unique particle ids (id " +
                           std::to_string(p.id[i]) + " repeats)");
     total_ = p.size();
-    for (int t = 0; t < model.ntypes(); ++t)
-      if (model.types[static_cast<size_t>(t)].frozen) frozen_mask_ |= 1u << t;
+    frozen_mask_ = model.frozen_mask();
 
     // The first decomposition weighs the particles by their type alone (no neighbour counts
     // exist yet): every rank holds the whole initial set, so each computes the same one.

@@ -109,3 +109,21 @@ TEST_P(RigidSlab, RefusesFrozenOrEmptySlabs) {
 MESOROCK_ON_EVERY_BACKEND(RigidSlab);
 
 }  // namespace
+
+// Which types move freely: one definition (Model::mobile_mask) for injection, the sweep's driven
+// types, the binned observables' default types and the parser.
+TEST(Model, MobileTypesAreNeitherFrozenNorSlabBodies) {
+  ms::Model m;
+  m.types = {{"water"}, {"wall", true}, {"piston"}, {"oil"}};
+  m.rigid_slabs.push_back({2, 2, -1.0});
+  EXPECT_EQ(m.frozen_mask(), 0b0010u);
+  EXPECT_EQ(m.mobile_mask(), 0b1001u);
+  EXPECT_TRUE(m.is_mobile(0));
+  EXPECT_FALSE(m.is_mobile(1));
+  EXPECT_FALSE(m.is_mobile(2));
+  EXPECT_TRUE(m.is_mobile(3));
+  EXPECT_FALSE(m.is_mobile(4));       // no such type
+  EXPECT_EQ(m.wall_mask(), 0b0010u);  // the wall model's walls: every frozen type by default
+  m.wall_model.wall_types = 0b0100u;
+  EXPECT_EQ(m.wall_mask(), 0b0100u);
+}

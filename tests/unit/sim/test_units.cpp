@@ -1,5 +1,5 @@
 // Reduced mDPD units -> SI: hand-computed conversions and the water model's numbers from
-// PHYSICS.md ("Unit conversion").
+// docs/physics.md ("Unit conversion").
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -101,8 +101,8 @@ TEST(Units, ParticleMassIsMoleculesTimesMolarMassOverAvogadro) {
 }
 
 TEST(Units, WaterModelMatchesPhysicsMd) {
-  // PHYSICS.md, "Unit conversion" (water model, Nm = 3): rc = (rho* Nm V)^(1/3) with V = 30 A^3
-  // and rho* = 6.88: (6.88 * 3 * 30)^(1/3) = 619.2^(1/3) = 8.5233 A = 0.852 nm (as stated).
+  // docs/physics.md, "Unit conversion" (water model, Nm = 3): rc = (rho* Nm V)^(1/3) with V = 30
+  // A^3 and rho* = 6.88: (6.88 * 3 * 30)^(1/3) = 619.2^(1/3) = 8.5233 A = 0.852 nm (as stated).
   const UnitSystem w = water_model();
   EXPECT_NEAR(w.length_per_rc_nm, 0.852, 0.0005);
   expect_rel(w.length_per_rc_nm, 0.85233, 1e-5, "rc digits");
@@ -113,18 +113,18 @@ TEST(Units, WaterModelMatchesPhysicsMd) {
   //     = 8.5233e-10 * sqrt(2.17834e-5) = 8.5233e-10 * 4.66727e-3 = 3.978e-12 s (about 4 ps).
   expect_rel(w.tau_s(), 3.97807e-12, 1e-5, "tau");
 
-  // Density (PHYSICS.md: rho = rho* Nm M / (NA rc^3) = 994 kg/m^3). With rc^3 = rho* Nm V this
+  // Density (docs/physics.md: rho = rho* Nm M / (NA rc^3) = 994 kg/m^3). With rc^3 = rho* Nm V this
   // is M / (NA V) = 18e-3 / (6.02214076e23 * 30e-30) = 996.3 kg/m^3: the stated 994 to 0.25%.
-  expect_rel(w.mass_density_kg_per_m3(6.88), 994, 0.005, "density vs PHYSICS.md");
+  expect_rel(w.mass_density_kg_per_m3(6.88), 994, 0.005, "density vs docs/physics.md");
   expect_rel(w.mass_density_kg_per_m3(6.88), 996.32, 1e-4, "density digits");
 
-  // Surface tension (PHYSICS.md: gamma = gamma* kBT / rc^2 = 70.6 mN/m at T = 298 K for
+  // Surface tension (docs/physics.md: gamma = gamma* kBT / rc^2 = 70.6 mN/m at T = 298 K for
   // gamma* = 12.4): 12.4 * 1.380649e-23 * 298 / (8.5233e-10)^2 = 12.4 * 5.66342e-3
   // = 70.23 mN/m, the stated 70.6 mN/m to 0.6%.
   WaterModel at298;
   at298.temperature_K = 298;
   const UnitSystem w298 = water_model(at298);
-  expect_rel(w298.surface_tension_n_per_m(12.4), 0.0706, 0.01, "tension vs PHYSICS.md");
+  expect_rel(w298.surface_tension_n_per_m(12.4), 0.0706, 0.01, "tension vs docs/physics.md");
   expect_rel(w298.surface_tension_n_per_m(12.4), 0.070226, 1e-4, "tension digits");
 }
 
