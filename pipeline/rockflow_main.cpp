@@ -289,6 +289,7 @@ int main(int argc, char** argv) {
     if (*run) {
       require_backend(so.backend);
       const mp::Scene scene = mp::load_scene(scene_path);
+      mp::check_memory_for(scene, so);  // before any particle: host and (CUDA) device memory
       mp::RunOptions ro;
       ro.out_dir = out_dir;
       ro.sim = so;
@@ -303,6 +304,7 @@ int main(int argc, char** argv) {
     if (*sweep) {
       require_backend(so.backend);
       const mp::Scene scene = mp::load_scene(sweep_scene);
+      mp::check_memory_for(scene, so);
       sc.out_dir = sweep_out;
       sc.run.sim = so;
       // Every item, empty ones too: "0.01,,0.02" is a typo, not two forces.
