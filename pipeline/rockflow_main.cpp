@@ -297,6 +297,10 @@ int main(int argc, char** argv) {
       ro.resume = resume;
       if (checkpoint_every >= 0) ro.checkpoint_every = static_cast<std::uint64_t>(checkpoint_every);
       mp::install_interrupt_handlers();  // Ctrl-C: checkpoint, then exit 130
+      // Ctrl-C during the solver's set-up stops it between passes (nothing written yet).
+      ro.sim.interrupt_check = [] {
+        mp::throw_if_interrupted("during set-up, before any step: nothing was written");
+      };
       mp::run_scene(scene, ro);
       return mp::kExitOk;
     }

@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "mesorock/errors.h"
+#include "pipeline/flow/interrupt.h"
 #include "sim/init.h"
 #include "sim/memory_budget.h"
 #include "sim/particle_io.h"
@@ -1214,6 +1215,8 @@ sim::ParticleSet build_initial_particles(const Scene& scene) {
     if (static_cast<double>(out.size()) > kMaxParticles)
       throw ConfigError(where + ": the scene would hold more than " + num(kMaxParticles) +
                         " particles");
+    throw_if_interrupted("during set-up (after " + indexed("init", k) +
+                         "), before any step: nothing was written");
   }
 
   // Maxwell velocities for the generated particles only (file particles keep theirs); the
