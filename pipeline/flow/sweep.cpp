@@ -310,6 +310,8 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
         if (!model.types[static_cast<size_t>(t)].frozen && !slab) driven |= 1u << t;
       }
   }
+  if (driven == 0)
+    throw ConfigError(where + ": no driven type (every type is frozen or a rigid slab)");
   int axis = 0;
   if (!c.axis.empty()) {
     axis = parse_axis(c.axis);

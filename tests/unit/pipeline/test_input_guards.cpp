@@ -1,6 +1,7 @@
 // Input guards of rockflow (issue 22, items 2 and 9): a run that cannot fit in memory is refused
 // before any particle is made, naming the key and the bytes; Ctrl-C during set-up acts between
-// the set-up passes.
+// the set-up passes; errors name the file they are about (a sweep without a driven type, a
+// checkpoint holding NaN).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
@@ -12,6 +13,7 @@
 
 #include "mesorock/errors.h"
 #include "pipeline/scene.h"
+#include "sim/checkpoint.h"
 #include "sim/memory_budget.h"
 #include "sim/simulation.h"
 #include "support/test_support.h"
@@ -166,6 +168,55 @@ TEST(SetupInterrupt, CtrlCDuringSetUpStopsBeforeAnyStep) {
   EXPECT_NE(r.err.find("nothing was written"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "checkpoint.h5")) << r.err;
   std::cerr << r.err;  // the latency, for the record
+}
+
+// `rockflow sweep` of a scene whose every type is frozen: "sweep: no driven type" named no file.
+TEST(ErrorsNameTheFile, SweepWithoutADrivenType) {
+  TempDir dir;
+  const fs::path scene =
+      write_scene(dir,
+                  "name = \"frozen\"\nseed = 1\n[box]\nlo = [0.0, 0.0, 0.0]\nhi = [4.0, 4.0, 4.0]\n"
+                  "boundary = [\"periodic\", \"periodic\", \"periodic\"]\n"
+                  "[model]\nconservative = \"mdpd\"\ndensity_kernel = \"warren\"\nrd = 0.75\n"
+                  "thermostat = true\nkBT = 1.0\n[[types]]\nname = \"wall\"\nfrozen = true\n"
+                  "[[pairs]]\ntypes = [\"wall\", \"wall\"]\nA = -40.0\nB = 25.0\ngamma = 4.5\n"
+                  "[[init]]\nkind = \"lattice\"\ntype = \"wall\"\ndensity = 3.0\n"
+                  "[[run]]\nsteps = 10\ndt = 0.01\n");
+  const CommandResult r = mesorock::test::run_command(
+      "cd " + shell_quote(dir.path().string()) + " && " + shell_quote(MESOROCK_ROCKFLOW) +
+          " sweep " + shell_quote(scene.string()) +
+          " --forces 0.01 --fluid-density 3 --viscosity 1 --out sw --threads 1",
+      dir.path());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("no driven type"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(scene.string()), std::string::npos) << r.err;
+}
+
+// A checkpoint whose positions hold a NaN: the solver's input check said "particle N has a
+// non-finite position or velocity", naming no file.
+TEST(ErrorsNameTheFile, CheckpointHoldingNaN) {
+  namespace ms = mesorock::sim;
+  TempDir dir;
+  const fs::path scene_path = write_scene(dir, scene_with(random_block("300"), 4));
+  const mesorock::pipeline::Scene scene = mesorock::pipeline::load_scene(scene_path);
+  auto sim = ms::make_simulation(scene.model, scene.box,
+                                 mesorock::pipeline::build_initial_particles(scene), 0.01, {});
+  ms::CheckpointFile c;
+  c.state = sim->state();
+  c.state.x[7] = std::numeric_limits<double>::quiet_NaN();
+  c.created_by = "rockflow run";
+  c.scene_path = scene_path.string();
+  c.scene_text = scene.source_text;
+  fs::create_directories(dir / "out");
+  const fs::path checkpoint = dir / "out" / "checkpoint.h5";
+  ms::write_checkpoint(checkpoint, c);
+  const CommandResult r = mesorock::test::run_command(
+      "cd " + shell_quote(dir.path().string()) + " && " + shell_quote(MESOROCK_ROCKFLOW) + " run " +
+          shell_quote(scene_path.string()) + " --out out --resume --threads 1",
+      dir.path());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("out/checkpoint.h5: /checkpoint/x"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("NaN"), std::string::npos) << r.err;
 }
 
 }  // namespace
