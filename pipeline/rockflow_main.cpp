@@ -291,6 +291,7 @@ int main(int argc, char** argv) {
     if (*run) {
       require_backend(so.backend);
       const mp::Scene scene = mp::load_scene(scene_path);
+      mp::check_memory_for(scene, so);  // before any particle: host and (CUDA) device memory
       mp::RunOptions ro;
       ro.out_dir = out_dir;
       ro.sim = so;
@@ -298,6 +299,10 @@ int main(int argc, char** argv) {
       ro.resume = resume;
       if (checkpoint_every >= 0) ro.checkpoint_every = static_cast<std::uint64_t>(checkpoint_every);
       mp::install_interrupt_handlers();  // Ctrl-C: checkpoint, then exit 130
+      // Ctrl-C during the solver's set-up stops it between passes (nothing written yet).
+      ro.sim.interrupt_check = [] {
+        mp::throw_if_interrupted("during set-up, before any step: nothing was written");
+      };
       mp::run_scene(scene, ro);
       return mp::kExitOk;
     }
@@ -305,6 +310,7 @@ int main(int argc, char** argv) {
     if (*sweep) {
       require_backend(so.backend);
       const mp::Scene scene = mp::load_scene(sweep_scene);
+      mp::check_memory_for(scene, so);
       sc.out_dir = sweep_out;
       sc.run.sim = so;
       // Every item, empty ones too: "0.01,,0.02" is a typo, not two forces.

@@ -17,7 +17,9 @@
 #include <utility>
 
 #include "mesorock/errors.h"
+#include "pipeline/flow/interrupt.h"
 #include "sim/init.h"
+#include "sim/memory_budget.h"
 #include "sim/particle_io.h"
 
 namespace mesorock::pipeline {
@@ -1043,7 +1045,90 @@ Scene load_scene(const fs::path& path) {
   return parse_scene(text.str(), path);
 }
 
+namespace {
+
+// The particles block `in` will create: the count the fills make (fill_random rounds density x
+// volume, fill_lattice rounds the cells per axis), or the count in the file's header.
+double init_particle_count(const Scene& scene, size_t k, const InitSpec& in) {
+  if (in.kind == InitSpec::Kind::File) {
+    try {
+      return static_cast<double>(sim::read_particle_file_count(in.file));
+    } catch (const IoError& e) {
+      throw IoError(scene.path.string() + ": " + indexed("init", k) + ".file: " + e.what());
+    }
+  }
+  double volume = 1;
+  for (size_t a = 0; a < 3; ++a) volume *= in.hi[a] - in.lo[a];
+  if (in.kind == InitSpec::Kind::Random)
+    return in.density ? std::round(*in.density * volume)
+                      : static_cast<double>(in.count.value_or(0));
+  if (!in.density) return 0;
+  const double spacing = std::cbrt(1.0 / *in.density);
+  double n = 1;
+  for (size_t a = 0; a < 3; ++a) n *= std::max(1.0, std::round((in.hi[a] - in.lo[a]) / spacing));
+  return n;
+}
+
+// A particle count as digits ("4000000000", not "4e+09").
+std::string count_text(double n) {
+  return n < 1e18 ? std::to_string(static_cast<long long>(n)) : num(n);
+}
+
+std::string init_key(const InitSpec& in, size_t k) {
+  const char* key = in.kind == InitSpec::Kind::File ? "file" : in.count ? "count" : "density";
+  return indexed("init", k) + "." + key;
+}
+
+}  // namespace
+
+void check_memory_for(const Scene& scene, const sim::SimulationOptions& options) {
+  const std::string file = scene.path.string();
+  std::vector<double> counts;
+  double total = 0;
+  for (size_t k = 0; k < scene.init.size(); ++k) {
+    counts.push_back(init_particle_count(scene, k, scene.init[k]));
+    total += counts.back();
+  }
+  const sim::Precision precision = scene.model.precision;
+  if (total > kMaxParticles)
+    throw LimitError(file + ": [[init]] blocks: total " + count_text(total) +
+                     " particles, more than the limit of " + num(kMaxParticles) +
+                     " for one run (they would need about " +
+                     sim::bytes_text(total * sim::host_bytes_per_particle(precision)) +
+                     " of host memory)");
+  // Cells of the cell list (CellGrid::make): (rc + skin) / cells_per_cutoff wide.
+  double cells = 1;
+  for (size_t a = 0; a < 3; ++a)
+    cells *= std::max(1.0, std::floor(scene.box.length(static_cast<int>(a)) *
+                                      std::max(1, options.cells_per_cutoff) / (1 + options.skin)));
+  const double voxels =
+      scene.model.solid.mask ? static_cast<double>(scene.model.solid.mask->solid.size()) : 0.0;
+  // Which key asked: the largest block when it alone does not fit, else the blocks together.
+  auto refuse_if_short = [&](double per_particle, double fixed, const sim::MemoryAvailable& have,
+                             const char* what) {
+    const std::string why = sim::memory_shortfall(total * per_particle + fixed, have, what);
+    if (why.empty()) return;
+    const size_t k =
+        static_cast<size_t>(std::max_element(counts.begin(), counts.end()) - counts.begin());
+    const bool alone = k < counts.size() &&
+                       !sim::memory_shortfall(counts[k] * per_particle + fixed, have, what).empty();
+    const double n = alone ? counts[k] : total;
+    throw LimitError(
+        file + ": " +
+        (alone ? init_key(scene.init[k], k) + ": " : std::string("[[init]] blocks: total ")) +
+        count_text(n) + " particles (" + num(per_particle) + " bytes each): a run " +
+        sim::memory_shortfall(n * per_particle + fixed, have, what));
+  };
+  refuse_if_short(sim::host_bytes_per_particle(precision), cells * sim::kHostBytesPerCell,
+                  sim::host_memory_available(), "host");
+  if (options.backend == sim::BackendKind::CUDA)
+    refuse_if_short(sim::device_bytes_per_particle(precision),
+                    cells * sim::kDeviceBytesPerCell + voxels,
+                    sim::device_memory_available(options.device), "device");
+}
+
 sim::ParticleSet build_initial_particles(const Scene& scene) {
+  check_memory_for(scene, sim::SimulationOptions{});  // host memory, before any particle
   const std::string file = scene.path.string();
   const sim::Model& m = scene.model;
   sim::ParticleSet out;
@@ -1125,6 +1210,8 @@ sim::ParticleSet build_initial_particles(const Scene& scene) {
     if (static_cast<double>(out.size()) > kMaxParticles)
       throw ConfigError(where + ": the scene would hold more than " + num(kMaxParticles) +
                         " particles");
+    throw_if_interrupted("during set-up (after " + indexed("init", k) +
+                         "), before any step: nothing was written");
   }
 
   // Maxwell velocities for the generated particles only (file particles keep theirs); the

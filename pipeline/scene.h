@@ -11,6 +11,7 @@
 
 #include "sim/domain/decomposition.h"
 #include "sim/model.h"
+#include "sim/simulation.h"
 
 namespace mesorock::pipeline {
 
@@ -93,6 +94,14 @@ Scene parse_scene(const std::string& text, const std::filesystem::path& path_for
 
 // The stages whose samples enter time averages: output.average_stages, or the last stage.
 bool stage_is_averaged(const Scene& scene, const std::string& stage_name);
+
+// Refuses, before any particle is made, a scene whose [[init]] blocks would create more particles
+// than one run holds (2^31 - 1) or need more memory than is available (sim/memory_budget.h: host
+// memory for every backend, device memory too for CUDA): a LimitError (exit 2) naming the block
+// ("init[1].count") or "[[init]] blocks: total", with the bytes needed and available. File blocks
+// count the particles in the file's header without reading them. build_initial_particles checks
+// the host memory itself; commands call this for the device too.
+void check_memory_for(const Scene& scene, const sim::SimulationOptions& options);
 
 // Builds the initial particles a scene describes (random/lattice fills, HDF5 files), with
 // Maxwell velocities at model.kBT for mobile particles of generated blocks (particles read from

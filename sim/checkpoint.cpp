@@ -3,6 +3,7 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
@@ -311,6 +312,18 @@ CheckpointFile read_checkpoint(const fs::path& path) {
       s.check();
     } catch (const ConfigError& e) {
       fail(file, "/checkpoint", e.what());
+    }
+    // A NaN here reached the solver's input check as "particle N has a non-finite position or
+    // velocity", naming no file.
+    for (int a = 0; a < 14; ++a) {
+      const std::vector<double>& v = s.*kRealArrays[a];
+      const auto bad = std::find_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); });
+      if (bad == v.end()) continue;
+      const auto i = static_cast<size_t>(bad - v.begin());
+      fail(file, std::string("/checkpoint/") + kRealNames[a],
+           "entry " + std::to_string(i) + " (particle id " + std::to_string(s.id[i]) + ") is " +
+               (std::isnan(*bad) ? "NaN" : "infinite") +
+               ": this checkpoint cannot be resumed (remove it to start the run afresh)");
     }
   }
   {

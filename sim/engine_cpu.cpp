@@ -230,9 +230,11 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     ThreadScope scope(threads_);
     if (hooks_) hooks_->exchange(*this);
     if (sort_due()) sort();
+    setup_poll();
     using C = typename Terms::conservative;
     using W = typename Terms::wall_model;
     local_sums();
+    setup_poll();
     if (hooks_) hooks_->sync_sums(*this);
     if constexpr (W::enabled) {
       const bool corrected = correct_penetrations() > 0;
@@ -247,10 +249,39 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     }
     const StepView<Real> v = s_->view();
     const int n = v.n;
+    if (setting_up()) {
+      setup_chunks(n, [&](int k) {
+        force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force, W>(
+            v, k, NeighbourStash{});
+      });
+      return;
+    }
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < n; ++k)
       force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force, W>(
           v, k, NeighbourStash{});
+  }
+
+  // Set-up (an interrupt check is set, Engine::set_interrupt_check; never in a decomposed run,
+  // whose ranks must not leave a collective alone): the first density and force passes of a
+  // large system take seconds (4 M particles on 2 cores: 4 s and 8 s), so they run in chunks of
+  // kSetupChunk particles with the check between them. Each particle's sums are its own: the
+  // results are those of one loop. A step's passes keep the plain loops.
+  static constexpr int kSetupChunk = 1 << 18;
+  bool setting_up() const {
+    return this->interrupt_check_ && !hooks_;
+  }
+  void setup_poll() {
+    if (setting_up()) this->interrupt_check_();
+  }
+  template <class Body>
+  void setup_chunks(int n, Body&& body) {
+    for (int first = 0; first < n; first += kSetupChunk) {
+      const int last = std::min(n, first + kSetupChunk);
+#pragma omp parallel for schedule(static)
+      for (int k = first; k < last; ++k) body(k);
+      this->interrupt_check_();
+    }
   }
 
   // Every step, or with a reorder interval (HostState::reorder_every) when the interval is up or a
@@ -285,9 +316,18 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     const int n = v.n;
     if constexpr (Terms::wall_model::enabled) {
       using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
+      if (setting_up()) {
+        setup_chunks(n, [&](int k) { density_and_bvf_of_particle<Real, K>(v, k); });
+        return;
+      }
 #pragma omp parallel for schedule(static)
       for (int k = 0; k < n; ++k) density_and_bvf_of_particle<Real, K>(v, k);
     } else if constexpr (C::needs_density) {
+      if (setting_up()) {
+        setup_chunks(n,
+                     [&](int k) { density_of_particle<Real, typename C::density_kernel>(v, k); });
+        return;
+      }
 #pragma omp parallel for schedule(static)
       for (int k = 0; k < n; ++k) density_of_particle<Real, typename C::density_kernel>(v, k);
     }

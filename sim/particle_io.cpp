@@ -366,6 +366,29 @@ ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out)
   return p;
 }
 
+std::size_t read_particle_file_count(const fs::path& path) {
+  silence_hdf5_errors();
+  const std::string file = path.string();
+  std::error_code ec;
+  if (!fs::exists(path, ec)) fail(file, "", "no such file");
+  if (!fs::is_regular_file(path, ec)) fail(file, "", "not a regular file");
+  Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot open file");
+  check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot open file");
+  Handle f = checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose, file, "",
+                     "cannot open as an HDF5 file (not HDF5, unreadable or damaged)");
+  if (H5Lexists(f.get(), "particles", H5P_DEFAULT) <= 0) fail(file, "/particles", "missing");
+  Handle g = checked(H5Gopen2(f.get(), "particles", H5P_DEFAULT), H5Gclose, file, "/particles",
+                     "not a group");
+  const std::string where = "/particles/position";
+  Handle ds = open_dataset(g.get(), "position", where, file);
+  Handle space = checked(H5Dget_space(ds.get()), H5Sclose, file, where, "cannot read dataspace");
+  const auto dims = extent(space.get(), file, where);
+  if (dims.size() != 2 || dims[1] != 3)
+    fail(file, where, "expected shape [N,3], got " + dims_text(dims));
+  check_declared_size(ds.get(), dims, sizeof(double), file, where);
+  return static_cast<std::size_t>(dims[0]);
+}
+
 void write_particle_xdmf(const fs::path& xmf, const fs::path& h5, std::size_t n,
                          std::optional<double> time) {
   // The data path is relative to the .xmf's folder, so the pair can be moved together.

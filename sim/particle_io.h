@@ -72,6 +72,10 @@ class ParticleFileWriter {
 ParticleSet read_particle_file(const std::filesystem::path& path,
                                ParticleFileMeta* meta_out = nullptr);
 
+// The particle count of a particle file, from the shape of /particles/position, reading no
+// particle (for memory estimates before a scene's particles are built). IoError as above.
+std::size_t read_particle_file_count(const std::filesystem::path& path);
+
 // Writes an XDMF 3 sidecar for a particle file holding n particles: Polyvertex topology, XYZ
 // geometry from /particles/position, attributes velocity (Vector), type and id (Scalar). The h5
 // path is written relative to the .xmf file's folder. `time`, when given, becomes the grid's Time.

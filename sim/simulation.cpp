@@ -458,16 +458,24 @@ class SimulationImpl final : public Simulation {
   SimulationImpl(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
                  const SimulationOptions& opt, const SimulationState* resume = nullptr)
       : model_(model), box_(box), dt_(dt), on_run_(opt.on_run) {
+    const auto poll = [&opt] {
+      if (opt.interrupt_check) opt.interrupt_check();
+    };
     init_host_state(state_, model, box, p, dt, opt);
+    poll();
     HostState<Real>& s = state_;
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
     engine_ = make_engine<Real>(model, opt);
+    engine_->set_interrupt_check(opt.interrupt_check);
     if (resume) {
       load_state(s, *resume);
+      poll();
       engine_->restore(s, resume->wall_corrections);
     } else {
       engine_->initialize(s);
     }
+    engine_->set_interrupt_check({});
+    poll();
     engine_->set_watchdog(opt.watchdog);
     // The initial forces may live only on the device: the next read downloads them.
     host_current_ = false;
@@ -640,6 +648,7 @@ std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& b
                                             const ParticleSet& particles, double dt,
                                             const SimulationOptions& options) {
   validate_inputs(model, box, particles, dt);
+  if (options.interrupt_check) options.interrupt_check();
   if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
     return make_distributed_simulation(model, box, particles, dt, options);
   if (options.backend == BackendKind::CUDA) {
@@ -657,6 +666,7 @@ std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec&
   state.check();
   state.check_fits(model);  // on the whole state: every rank of a decomposed resume agrees
   validate_inputs(model, box, state.particles(), state.dt, state.step);
+  if (options.interrupt_check) options.interrupt_check();
   if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
     return resume_distributed_simulation(model, box, state, options);
   if (options.backend == BackendKind::CUDA) {

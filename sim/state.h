@@ -3,7 +3,9 @@
 // CUDA engine mirrors it on the device and writes it back only when an output asks.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sim/box.h"
@@ -160,9 +162,13 @@ class Engine {
   virtual std::string profile_report() const { return ""; }
   // The numerical watchdog (sim/watchdog.h), checked after every step while enabled.
   virtual void set_watchdog(const WatchdogOptions& o) { watchdog_ = o; }
+  // Set-up only (SimulationOptions::interrupt_check): set around initialize/restore, then cleared;
+  // the engine calls it between its passes and may throw through them.
+  void set_interrupt_check(std::function<void()> check) { interrupt_check_ = std::move(check); }
 
  protected:
   WatchdogOptions watchdog_;
+  std::function<void()> interrupt_check_;
 };
 
 }  // namespace mesorock::sim

@@ -238,7 +238,7 @@ Volume read_hdf5(const fs::path& path, const std::string& dataset, const ReadLim
     spacing.unit = "um";
     spacing_source = "metadata";
   }
-  if (spacing_source == "metadata") validate_spacing(spacing);
+  if (spacing_source == "metadata") validate_spacing(spacing, what);
 
   Volume volume(shape, dtype, spacing);
   if (H5Dread(ds.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, volume.bytes()) < 0) {

@@ -20,6 +20,9 @@ struct ReadReport {
   std::string spacing_source = "none";  // "metadata", "command line" or "none"
   std::vector<std::string> warnings;
   nlohmann::json provenance;  // a mesorock sidecar's content when the input has one, else null
+  // NaN and infinite voxels of a float32 input (load_volume counts them, and warns when there
+  // are any: segment labels them outside, see NonFiniteCounts).
+  NonFiniteCounts non_finite;
 };
 
 // Limits shared by the loaders.

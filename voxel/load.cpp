@@ -153,7 +153,7 @@ Volume load_volume(const fs::path& input, const LoadOptions& options, ReadReport
     }
   }
   if (options.spacing) {
-    validate_spacing(*options.spacing);
+    validate_spacing(*options.spacing, "--spacing");
     if (r.spacing_source == "metadata" && (volume.spacing().str() != options.spacing->str())) {
       r.warnings.push_back(input.string() + ": --spacing " + options.spacing->str() +
                            " overrides the file's " + volume.spacing().str());
@@ -163,9 +163,13 @@ Volume load_volume(const fs::path& input, const LoadOptions& options, ReadReport
   } else if (options.unit) {
     Spacing s = volume.spacing();
     s.unit = *options.unit;
-    validate_spacing(s);
+    validate_spacing(s, input.string());
     volume.set_spacing(s);
   }
+  // NaN voxels used to pass silently, and segment made them "outside" without a word.
+  r.non_finite = count_non_finite(volume);
+  if (r.non_finite.total() > 0)
+    r.warnings.push_back(input.string() + ": " + non_finite_note(r.non_finite, volume.voxels()));
   return volume;
 }
 

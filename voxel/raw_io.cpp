@@ -275,7 +275,7 @@ Volume read_mhd(const fs::path& header, const ReadLimits& limits, ReadReport* re
                                ": MetaImage has no length unit; assuming mm (the ITK "
                                "convention); pass --unit to override");
   }
-  if (!spacing_text.empty()) validate_spacing(spacing);
+  if (!spacing_text.empty()) validate_spacing(spacing, name + ": ElementSpacing");
 
   const bool big_endian =
       parse_bool_word(get("BinaryDataByteOrderMSB")) || parse_bool_word(get("ElementByteOrderMSB"));

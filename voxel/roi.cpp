@@ -217,7 +217,7 @@ Volume resample(const Volume& volume, const ResampleOptions& options) {
   if (out_shape.nz < 1 || out_shape.ny < 1 || out_shape.nx < 1) {
     throw ConfigError("resample: output shape " + out_shape.str() + " is empty");
   }
-  validate_spacing(options.spacing);
+  validate_spacing(options.spacing, "resample");
   Volume out(out_shape, volume.dtype(), options.spacing);
   // Per axis: the input coordinate of each output centre.
   std::array<std::vector<double>, 3> u;

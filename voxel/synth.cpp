@@ -100,7 +100,7 @@ std::uint64_t mix64(std::uint64_t x) {
 
 ShaleSample make_shale(const ShaleOptions& o) {
   const Shape s = o.shape;
-  validate_spacing(o.spacing);
+  validate_spacing(o.spacing, "synthetic shale");
   if (s.nz < 1 || s.ny < 1 || s.nx < 1) throw ConfigError("synthetic shale: empty shape");
   if (!(o.porosity >= 0 && o.porosity <= 0.6)) {
     throw ConfigError("synthetic shale: porosity must be 0 to 0.6");

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <sstream>
 
@@ -65,13 +66,43 @@ std::string Spacing::str() const {
   return s.str();
 }
 
-void validate_spacing(const Spacing& spacing) {
+void validate_spacing(const Spacing& spacing, const std::string& where) {
+  const std::string prefix = where.empty() ? "" : where + ": ";
   for (double d : {spacing.dz, spacing.dy, spacing.dx}) {
     if (!std::isfinite(d) || d <= 0) {
-      throw ConfigError("voxel spacing must be positive and finite, got " + spacing.str());
+      throw ConfigError(prefix + "voxel spacing must be positive and finite, got " + spacing.str());
     }
   }
-  if (spacing.unit.empty()) throw ConfigError("voxel spacing needs a unit");
+  if (spacing.unit.empty()) throw ConfigError(prefix + "voxel spacing needs a unit");
+}
+
+NonFiniteCounts count_non_finite(const Volume& volume) {
+  NonFiniteCounts c;
+  if (volume.dtype() != DType::kFloat32 || volume.empty()) return c;
+  const float* v = volume.data<float>();
+  const std::int64_t n = volume.voxels();
+  for (std::int64_t i = 0; i < n; ++i) {
+    if (std::isfinite(v[i])) continue;
+    if (std::isnan(v[i])) {
+      ++c.nan;
+    } else if (v[i] > 0) {
+      ++c.pos_inf;
+    } else {
+      ++c.neg_inf;
+    }
+  }
+  return c;
+}
+
+std::string non_finite_note(const NonFiniteCounts& counts, std::int64_t voxels) {
+  char share[32];
+  std::snprintf(share, sizeof share, "%.3g%%",
+                voxels > 0 ? 100.0 * static_cast<double>(counts.total()) / voxels : 0.0);
+  return std::to_string(counts.total()) + " of " + std::to_string(voxels) + " voxels (" + share +
+         ") are not finite numbers (" + std::to_string(counts.nan) + " NaN, " +
+         std::to_string(counts.pos_inf) + " +inf, " + std::to_string(counts.neg_inf) +
+         " -inf): they are read as no data; segment labels them outside (not pore, not solid; "
+         "not counted in the porosity)";
 }
 
 std::size_t physical_memory_bytes() {

@@ -84,7 +84,20 @@ struct Spacing {
 };
 
 // Throws ConfigError unless all three values are finite and positive and the unit is non-empty.
-void validate_spacing(const Spacing& spacing);
+// `where` (the file and key, or the option, that gave the spacing) starts the message.
+void validate_spacing(const Spacing& spacing, const std::string& where);
+
+// Voxels of a float32 volume that are not finite numbers (none in an integer volume). Policy
+// (docs/voxel.md): NaN and +-inf mean "no data" (a mask, an area the reconstruction did not
+// cover); loading counts and reports them, and segmentation labels them outside: neither pore nor
+// solid, left out of the porosity and the histogram.
+struct NonFiniteCounts {
+  std::int64_t nan = 0, pos_inf = 0, neg_inf = 0;
+  std::int64_t total() const { return nan + pos_inf + neg_inf; }
+};
+// "12 of 1000 voxels (1.2%) are not finite numbers (10 NaN, 2 +inf, 0 -inf): they are read as no
+// data; segment labels them outside (not pore, not solid; not counted in the porosity)".
+std::string non_finite_note(const NonFiniteCounts& counts, std::int64_t voxels);
 
 // Shape * dtype size. Throws IoError naming `what` when an axis is not positive or the product
 // overflows: a header with such a shape is corrupt. Loaders compare this with the file size
@@ -154,5 +167,8 @@ class Volume {
 
 // Reads the value of voxel `index` as a double (for statistics and messages, not inner loops).
 double value_as_double(const Volume& volume, std::int64_t index);
+
+// The NaN and infinite voxels of a float32 volume (NonFiniteCounts above; zero otherwise).
+NonFiniteCounts count_non_finite(const Volume& volume);
 
 }  // namespace mesorock::voxel

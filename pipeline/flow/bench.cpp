@@ -13,6 +13,7 @@
 #include "mesorock/errors.h"
 #include "pipeline/flow/systems.h"
 #include "sim/domain/communicator.h"
+#include "sim/memory_budget.h"
 
 namespace mesorock::pipeline {
 
@@ -61,11 +62,42 @@ void time_watchdog_rounds(const BenchOptions& o, const BuiltSystem& s, BenchResu
       static_cast<double>(sims[1]->device_bytes()) / static_cast<double>(sims[1]->size());
 }
 
+// Refuses, before the case is built, a particle count beyond one run (2^31 - 1) or beyond the
+// memory available (sim/memory_budget.h); --particles 2e9 used to grow until the kernel killed it.
+// Both cases fill a box at about 6.9 particles per rc^3 (one cell of rc per 6.9 particles); the
+// watchdog comparison holds two simulations.
+void check_bench_memory(const BenchOptions& o) {
+  const double n = static_cast<double>(o.particles);
+  if (n > 2147483647.0)
+    throw LimitError("--particles " + std::to_string(o.particles) +
+                     ": more than the limit of 2147483647 for one run (it would need about " +
+                     sim::bytes_text(n * sim::host_bytes_per_particle(o.precision)) +
+                     " of host memory)");
+  const double cpc = std::max(1, o.sim.cells_per_cutoff);
+  const double cells = n / 6.9 * cpc * cpc * cpc;
+  const double sims = o.compare_watchdog ? 2 : 1;
+  auto refuse_if_short = [&](double per_particle, double per_cell, const sim::MemoryAvailable& have,
+                             const char* what) {
+    const std::string why =
+        sim::memory_shortfall(sims * (n * per_particle + cells * per_cell), have, what);
+    if (!why.empty())
+      throw LimitError("--particles " + std::to_string(o.particles) + " (" +
+                       std::to_string(static_cast<int>(per_particle)) + " bytes each): the run " +
+                       why);
+  };
+  refuse_if_short(sim::host_bytes_per_particle(o.precision), sim::kHostBytesPerCell,
+                  sim::host_memory_available(), "host");
+  if (o.sim.backend == sim::BackendKind::CUDA)
+    refuse_if_short(sim::device_bytes_per_particle(o.precision), sim::kDeviceBytesPerCell,
+                    sim::device_memory_available(o.sim.device), "device");
+}
+
 }  // namespace
 
 BenchResult run_bench(const BenchOptions& o) {
   if (o.particles < 1000) throw ConfigError("--particles must be at least 1000");
   if (o.steps < 1) throw ConfigError("--steps must be at least 1");
+  check_bench_memory(o);
   const auto t0 = Clock::now();
   BuiltSystem s;
   if (o.case_name == "bulk") {

@@ -2,6 +2,8 @@
 
 #include <csignal>
 
+#include "mesorock/errors.h"
+
 namespace mesorock::pipeline {
 
 namespace {
@@ -21,6 +23,11 @@ void install_interrupt_handlers() {
 
 int interrupt_requested() {
   return g_signal;
+}
+
+void throw_if_interrupted(const std::string& when) {
+  if (const int sig = g_signal)
+    throw Interrupted(std::string(sig == SIGINT ? "Ctrl-C" : "SIGTERM") + " " + when);
 }
 
 }  // namespace mesorock::pipeline

@@ -306,6 +306,8 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
     }
     if (driven == 0) driven = model.mobile_mask();
   }
+  if (driven == 0)
+    throw ConfigError(where + ": no driven type (every type is frozen or a rigid slab)");
   int axis = 0;
   if (!c.axis.empty()) {
     axis = parse_axis(c.axis);

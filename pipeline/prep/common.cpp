@@ -84,7 +84,7 @@ voxel::LoadOptions InputArgs::load_options() const {
     s.dy = v[1];
     s.dx = v[2];
     s.unit = voxel::normalize_unit(unit);
-    voxel::validate_spacing(s);
+    voxel::validate_spacing(s, "--spacing");
     o.spacing = s;
   } else if (!unit.empty()) {
     o.unit = voxel::normalize_unit(unit);
@@ -338,6 +338,11 @@ nlohmann::json input_record(const InputArgs& input, const voxel::Volume& volume,
   if (!input.array.empty()) j["array"] = input.array;
   if (!input.dataset.empty()) j["dataset"] = input.dataset;
   if (report.provenance.is_object()) j["provenance"] = report.provenance;
+  if (report.non_finite.total() > 0)
+    j["non_finite_voxels"] = {{"nan", report.non_finite.nan},
+                              {"+inf", report.non_finite.pos_inf},
+                              {"-inf", report.non_finite.neg_inf},
+                              {"labelled", "outside (no data: not pore, not solid)"}};
   return j;
 }
 

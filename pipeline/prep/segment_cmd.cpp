@@ -117,6 +117,16 @@ int run_segment(const SegmentArgs& a) {
   exclusion.value = exclude_value;
   nlohmann::json params = filters;
   if (exclude_value) params["exclude_value"] = *exclude_value;
+  // NaN and infinite voxels are no data: labelled outside (load_input said so for the input; a
+  // Gaussian or median filter spreads a NaN to its neighbours, so they are counted again here).
+  const voxel::NonFiniteCounts non_finite = voxel::count_non_finite(volume);
+  if (non_finite.total() > 0) {
+    params["non_finite_voxels_labelled_outside"] = non_finite.total();
+    if (non_finite.total() != report.non_finite.total())
+      progress.warn(a.input.path + ": after the filters, " +
+                    voxel::non_finite_note(non_finite, volume.voxels()) + " (the input had " +
+                    std::to_string(report.non_finite.total()) + ")");
+  }
 
   voxel::Volume labels;
   if (a.otsu > 0) {
