@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -438,6 +439,7 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   const std::uint64_t start_step = sim->step();
   std::uint64_t stage_begin = 0;
   double stage_time = 0;
+  double seconds_per_step = 0;  // measured on the last chunk of steps
   try {
     if (!regions.empty() && !resume)
       sample_regions(*sim, scene, regions, sim->step(), time, scene.stages.front().name,
@@ -463,8 +465,17 @@ void run_scene(const Scene& scene, const RunOptions& o) {
           for (const auto& b : binned) until_next(b.spec.every);
         for (const auto& r : regions) until_next(r.spec->every);
         until_next(checkpoint_every);
-        n = std::min<std::uint64_t>(n, 1000);  // Ctrl-C is answered between chunks
+        // Ctrl-C is answered between chunks: at most 1,000 steps and about a second of work
+        // (a 4 M particle CPU run takes 7 s a step; 1,000 of them ignored Ctrl-C for hours). The
+        // chunking changes no result: the engines step one step at a time either way.
+        if (seconds_per_step > 0)
+          n = std::min<std::uint64_t>(
+              n, static_cast<std::uint64_t>(std::clamp(1.0 / seconds_per_step, 1.0, 1000.0)));
+        n = std::min<std::uint64_t>(n, 1000);
+        const auto t_chunk = Clock::now();
         sim->run(n);
+        seconds_per_step =
+            std::chrono::duration<double>(Clock::now() - t_chunk).count() / static_cast<double>(n);
         done += n;
         // From the stage's start, so that the time does not depend on how the stage was chunked.
         time = stage_time + static_cast<double>(done) * stage.dt;
