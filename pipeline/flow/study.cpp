@@ -39,6 +39,7 @@
 #include "pipeline/flow/viscosity_calibration.h"
 #include "pipeline/flow/wall_liquid.h"
 #include "sim/domain/communicator.h"
+#include "sim/eos.h"
 #include "sim/init.h"
 #include "sim/observables.h"
 
@@ -50,11 +51,9 @@ using namespace wall_liquid;
 using Clock = std::chrono::steady_clock;
 using Json = nlohmann::ordered_json;
 
-// Warren 2003's fit of the mDPD equation of state (docs/physics.md; the eos-mdpd case).
+// Warren 2003's fit of the mDPD equation of state at the study's liquid (sim/eos.h).
 double warren_pressure(double rho) {
-  constexpr double alpha = 0.101, c = 4.16, d = 18;
-  return rho + alpha * kA * rho * rho +
-         2 * alpha * kB * std::pow(kRd, 4) * (rho * rho * rho - c * rho * rho + d);
+  return sim::warren_pressure(rho, kA, kB, kRd);
 }
 
 // A run is called unstable when its kinetic temperature leaves (0, kMaxTemperature) or a sampled

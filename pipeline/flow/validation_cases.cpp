@@ -9,6 +9,7 @@
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
+#include "sim/eos.h"
 
 namespace mesorock::pipeline {
 
@@ -110,12 +111,6 @@ CaseResult run_eos_dpd(const ValidateOptions& o) {
 
 // --------------------------------------------------------------------------------------------
 // eos-mdpd: A = -40, B = 25, rd = 0.75, gamma = 4.5.
-double warren_fit(double rho, double A, double B, double rd) {
-  constexpr double alpha = 0.101, c = 4.16, d = 18;
-  return rho + alpha * A * rho * rho +
-         2 * alpha * B * std::pow(rd, 4) * (rho * rho * rho - c * rho * rho + d);
-}
-
 CaseResult run_eos_mdpd(const ValidateOptions& o) {
   CaseResult r;
   r.name = "eos-mdpd";
@@ -138,7 +133,7 @@ CaseResult run_eos_mdpd(const ValidateOptions& o) {
                  Comparison::AtMost));
       continue;
     }
-    const double fit = warren_fit(rho, -40, 25, 0.75);
+    const double fit = sim::warren_pressure(rho, -40, 25, 0.75);
     r.quantities.push_back(judged("pressure rho=" + fmt(rho, 3), m.pressure.mean, m.pressure.error,
                                   fit, std::max(0.03 * std::abs(fit), 2.0),
                                   "Warren 2003 fit (alpha 0.101, c 4.16, d 18); max(3%, 2.0)"));

@@ -40,12 +40,6 @@ bool is_fluid(const std::string& t) {
 
 }  // namespace
 
-double warren_pressure(double rho, double A, double B, double rd) {
-  constexpr double alpha = 0.101, c = 4.16, d = 18;
-  const double rd4 = rd * rd * rd * rd;
-  return rho + alpha * A * rho * rho + 2 * alpha * B * rd4 * (rho * rho * rho - c * rho * rho + d);
-}
-
 // The head of both scenes: comment lines, name, seed, box with one boundary kind on every face,
 // the mDPD model with the thermostat.
 template <class Params>

@@ -12,6 +12,7 @@
 
 #include "packing/flooding.h"
 #include "packing/permeability.h"
+#include "sim/eos.h"
 
 namespace mesorock::pipeline::prep {
 
@@ -54,8 +55,7 @@ struct PermeabilitySceneParams : FloodingSceneParams {
 std::string permeability_scene_toml(const packing::PermeabilityLayout& layout,
                                     const PermeabilitySceneParams& params);
 
-// The mDPD pressure from Warren's fit (2020 paper, Fig. 3b): p = rho + alpha A rho^2 +
-// 2 alpha B rd^4 (rho^3 - c rho^2 + d), alpha = 0.101, c = 4.16, d = 18.
-double warren_pressure(double rho, double A, double B, double rd);
+// The mDPD pressure from Warren's fit: sim/eos.h.
+using sim::warren_pressure;
 
 }  // namespace mesorock::pipeline::prep
