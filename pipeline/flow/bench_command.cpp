@@ -1,0 +1,93 @@
+// `rockflow bench`: million particle-steps per second of a bulk or porous case.
+#include <algorithm>
+#include <iostream>
+
+#include "pipeline/exit_codes.h"
+#include "pipeline/flow/bench.h"
+#include "pipeline/flow/commands.h"
+
+namespace mesorock::pipeline {
+
+FlowCommand add_bench_command(CLI::App& rockflow) {
+  struct Args {
+    SolverFlags flags;
+    BenchOptions bo;
+    std::string precision = "single";
+    bool json = false, compare_cpu = false, profile = false, decompose = false;
+    int reorder_every = 1;
+    double skin = 0;
+    int cells_per_rc = sim::SimulationOptions{}.cells_per_cutoff;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* bench = rockflow.add_subcommand("bench", "measure million particle-steps per second");
+  bench->add_option("--case", a->bo.case_name, "bulk or porous")
+      ->check(CLI::IsMember({"bulk", "porous"}))
+      ->capture_default_str();
+  bench->add_option("--particles", a->bo.particles, "particle count")->capture_default_str();
+  bench->add_option("--steps", a->bo.steps, "timed steps")->capture_default_str();
+  add_solver_flags(*bench, a->flags);
+  bench->add_option("--precision", a->precision, "single or double")
+      ->check(CLI::IsMember({"single", "double"}));
+  bench->add_flag("--compare-cpu", a->compare_cpu, "also run the CPU backend on the same case");
+  bench->add_flag("--json", a->json, "print JSON");
+  bench
+      ->add_option("--watchdog", a->flags.watchdog,
+                   "on, off, or compare: time both in alternating rounds and print its cost")
+      ->check(CLI::IsMember({"on", "off", "compare"}))
+      ->capture_default_str();
+  bench
+      ->add_option("--reorder-every", a->reorder_every,
+                   "steps between cell sorts (needs --skin; default 1: every step)")
+      ->check(CLI::Range(1, 1000));
+  bench->add_option("--skin", a->skin, "cell-list skin in rc for --reorder-every")
+      ->check(CLI::Range(0.0, 1.0));
+  bench->add_flag("--decompose", a->decompose,
+                  "run the decomposed (MPI) solver even on one rank, to measure its cost");
+  bench->add_flag("--profile", a->profile,
+                  "CUDA: also time each pass (kick, sort, density, force)");
+  bench->add_option("--cells-per-rc", a->cells_per_rc, "cell-list cells per cutoff (1-4)")
+      ->check(CLI::Range(1, 4))
+      ->capture_default_str();
+  return {
+      bench, [a](std::shared_ptr<sim::Communicator> world) {
+        BenchOptions bo = a->bo;
+        bo.precision = a->precision == "double" ? sim::Precision::Double : sim::Precision::Single;
+        bo.sim = solver_options(a->flags, std::move(world));
+        const bool root = !bo.sim.comm || bo.sim.comm->rank() == 0;  // rank 0 alone prints
+        bo.sim.profile = a->profile;
+        bo.sim.cells_per_cutoff = a->cells_per_rc;
+        bo.sim.reorder_every = a->reorder_every;
+        bo.sim.skin = a->skin;
+        if (a->decompose) {
+          bo.sim.decomposition.force = true;
+          if (!bo.sim.comm) bo.sim.comm = sim::make_self_communicator();
+        }
+        bo.compare_watchdog = a->flags.watchdog == "compare";
+        const BenchResult r = run_bench(bo);
+        BenchResult cpu;
+        if (a->compare_cpu) {
+          BenchOptions co = bo;
+          co.sim.backend = sim::BackendKind::CPU;
+          co.sim.profile = false;
+          co.steps = std::max<std::uint64_t>(5, bo.steps / 20);
+          cpu = run_bench(co);
+        }
+        if (!root) return static_cast<int>(kExitOk);
+        if (a->json) {
+          std::string out = format_bench_json(r);
+          if (a->compare_cpu) {
+            out.pop_back();
+            out += ",\"cpu\":" + format_bench_json(cpu) +
+                   ",\"speedup_vs_cpu\":" + std::to_string(r.mps / cpu.mps) + "}";
+          }
+          std::cout << out << "\n";
+        } else {
+          std::cout << format_bench_text(r);
+          if (a->compare_cpu)
+            std::cout << format_bench_text(cpu) << "speed-up vs CPU: " << r.mps / cpu.mps << "x\n";
+        }
+        return static_cast<int>(kExitOk);
+      }};
+}
+
+}  // namespace mesorock::pipeline
