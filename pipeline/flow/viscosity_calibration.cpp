@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mesorock/atomic_file.h"
+#include "mesorock/cache.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "pipeline/flow/progress.h"
@@ -133,15 +134,6 @@ Plan plan_of(CalibrationSize size) {
 constexpr std::uint64_t kCalibrationSeed = 97;
 constexpr double kPeakShearRate = 0.1, kViscosityGuess = 7.0;
 
-std::uint64_t fnv1a(const std::string& s) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
 }  // namespace
 
 std::string calibration_key(const FluidSpec& f, CalibrationSize size) {
@@ -168,12 +160,7 @@ std::string calibration_key(const FluidSpec& f, CalibrationSize size) {
 }
 
 fs::path default_viscosity_cache() {
-  if (const char* d = std::getenv("MESOROCK_CACHE_DIR"); d && *d) return fs::path(d) / "viscosity";
-  if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d)
-    return fs::path(d) / "mesorock" / "viscosity";
-  if (const char* d = std::getenv("HOME"); d && *d)
-    return fs::path(d) / ".cache" / "mesorock" / "viscosity";
-  return fs::path(".mesorock-cache") / "viscosity";
+  return default_cache_dir("viscosity");
 }
 
 CalibratedViscosity calibrated_viscosity(const FluidSpec& fluid, CalibrationSize size,

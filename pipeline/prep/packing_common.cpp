@@ -2,7 +2,13 @@
 
 #include <sys/resource.h>
 
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "mesorock/cache.h"
 #include "mesorock/errors.h"
+#include "mesorock/version.h"
 #include "pipeline/prep/common.h"
 
 namespace mesorock::pipeline::prep {
@@ -72,14 +78,71 @@ tiledb::TileBuildOptions TileGenerationArgs::options(const std::string& provenan
   return o;
 }
 
+std::string tile_cache_key(const tiledb::TileKey& key, const TileGenerationArgs& g) {
+  // Nine significant digits: voxel edges computed from a spacing differ only in round-off.
+  auto n = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.9g", v);
+    return std::string(b);
+  };
+  std::ostringstream s;
+  s << "tiles|mesorock " << kVersion << "|" << tiledb::to_string(key.role) << "|rho "
+    << n(key.density) << "|edge " << n(key.edge[0]) << " " << n(key.edge[1]) << " "
+    << n(key.edge[2]) << "|A " << n(key.A) << "|B " << n(key.B) << "|rd " << n(key.rd) << "|gamma "
+    << n(key.gamma) << "|kBT " << n(key.kBT) << "|" << sim::to_string(key.density_kernel)
+    << "|variants " << g.variants << "|box " << n(g.box_edge) << "|relax " << g.relax
+    << "|equilibrate " << g.equilibrate << "|decorrelate " << g.decorrelate << "|dt " << n(g.dt)
+    << "|seed " << g.seed;
+  return s.str();
+}
+
+std::filesystem::path tile_cache_file(const std::filesystem::path& cache_dir,
+                                      const tiledb::TileKey& key, const TileGenerationArgs& g) {
+  char name[40];
+  std::snprintf(name, sizeof name, "tiles-%016llx.h5",
+                static_cast<unsigned long long>(fnv1a(tile_cache_key(key, g))));
+  return cache_dir / name;
+}
+
+const char* to_string(TileSource s) {
+  switch (s) {
+    case TileSource::Database:
+      return "database";
+    case TileSource::Cache:
+      return "cache";
+    case TileSource::Built:
+      return "built";
+  }
+  return "?";
+}
+
 const tiledb::TileSet& find_or_build_tiles(tiledb::TileDatabase& db, const tiledb::TileKey& key,
                                            const TileGenerationArgs& generation,
                                            const std::string& provenance_json,
                                            const std::function<void(const std::string&)>& say,
-                                           bool* built) {
+                                           TileSource* source,
+                                           const std::filesystem::path& cache_dir) {
+  namespace fs = std::filesystem;
   if (const tiledb::TileSet* s = db.find(key)) {
-    if (built) *built = false;
+    if (source) *source = TileSource::Database;
     return *s;
+  }
+  const fs::path cached =
+      cache_dir.empty() ? fs::path() : tile_cache_file(cache_dir, key, generation);
+  std::error_code ec;
+  if (!cached.empty() && fs::exists(cached, ec)) {
+    try {
+      const tiledb::TileDatabase c = tiledb::read_tile_database(cached);
+      // The file holds the set's key: a hash collision or another key is a miss.
+      if (c.sets.size() == 1 && c.sets.front().key.matches(key)) {
+        db.put(c.sets.front());
+        if (say) say("  from the tile cache: " + cached.string());
+        if (source) *source = TileSource::Cache;
+        return *db.find(key);
+      }
+    } catch (const IoError& e) {
+      if (say) say(std::string("  the cached set is unreadable, building it again: ") + e.what());
+    }
   }
   tiledb::TileBuildOptions o = generation.options(provenance_json);
   o.progress = say;
@@ -88,8 +151,20 @@ const tiledb::TileSet& find_or_build_tiles(tiledb::TileDatabase& db, const tiled
   if (!check.pass)
     throw NumericalError("tiles " + key.str() + " failed their check: " + check.str());
   if (say) say("  check: " + check.str());
+  if (!cached.empty()) {
+    try {
+      fs::create_directories(cache_dir, ec);
+      if (ec) throw IoError(cache_dir.string() + ": cannot create the tile cache: " + ec.message());
+      tiledb::TileDatabase one;
+      one.put(set);
+      tiledb::write_tile_database(cached, one);  // atomic: temporary name, then rename
+      if (say) say("  saved to the tile cache: " + cached.string());
+    } catch (const IoError& e) {
+      std::cerr << "rockprep: warning: the tile set was not cached: " << e.what() << "\n";
+    }
+  }
   db.put(std::move(set));
-  if (built) *built = true;
+  if (source) *source = TileSource::Built;
   return *db.find(key);
 }
 

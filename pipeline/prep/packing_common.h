@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <string>
 
@@ -42,12 +43,27 @@ struct TileGenerationArgs {
   tiledb::TileBuildOptions options(const std::string& provenance_json) const;
 };
 
-// The set with `key` from `db`, built (and added to db) when missing; `built` tells which.
+// The shared tile cache (docs/packing.md, "Tile cache"): one tile database per set in
+// `cache_dir`, named by a hash of everything that decides its tiles (the key, the generation
+// options but the thread count, which changes no tile, and the mesorock version).
+std::string tile_cache_key(const tiledb::TileKey& key, const TileGenerationArgs& generation);
+std::filesystem::path tile_cache_file(const std::filesystem::path& cache_dir,
+                                      const tiledb::TileKey& key,
+                                      const TileGenerationArgs& generation);
+
+// Where a set came from: the database given, the shared cache, or built here.
+enum class TileSource { Database, Cache, Built };
+const char* to_string(TileSource s);
+
+// The set with `key` from `db`; else from the cache (when `cache_dir` is not empty); else built.
+// A set built here is added to db and saved to the cache (a failed save is a warning: the run
+// does not need it). `source` tells which.
 const tiledb::TileSet& find_or_build_tiles(tiledb::TileDatabase& db, const tiledb::TileKey& key,
                                            const TileGenerationArgs& generation,
                                            const std::string& provenance_json,
                                            const std::function<void(const std::string&)>& say,
-                                           bool* built);
+                                           TileSource* source,
+                                           const std::filesystem::path& cache_dir = {});
 
 // Peak resident memory of this process so far (getrusage), bytes.
 std::size_t peak_rss_bytes();

@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "mesorock/atomic_file.h"
+#include "mesorock/cache.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "packing/flooding.h"
@@ -100,6 +101,7 @@ struct RunArgs {
   std::string wall_fill = "tiles", fluid_fill = "tiles", slab_fill = "tiles";
   double wall_density = 8.0, fluid_density = 6.5;
   std::string tiles_db;
+  std::string tile_cache = default_cache_dir("tiles").string();  // "none": no cache
   TileGenerationArgs generation;
   // Pair sets (the wall tiles are equilibrated with the wall-wall one, the fluid tiles with the
   // fluid-fluid one).
@@ -409,20 +411,22 @@ int run_run(const RunArgs& a) {
   const tiledb::TileSet* fluid_tiles = nullptr;
   bool built_any = false;
   const std::size_t sets_before = db.sets.size();
-  if (wall_fill == packing::Fill::Tiles || (!permeability && slab_fill == packing::Fill::Tiles)) {
-    bool built = false;
-    progress.stage("wall tiles", 0, [&] {
-      find_or_build_tiles(db, wall_key, a.generation, record.dump(), say, &built);
+  // Sets missing from --tiles come from the shared cache when there is one (a second run with
+  // the same fluid builds nothing); the cache is not used when --tiles names the database.
+  const fs::path cache_dir =
+      a.tiles_db.empty() && a.tile_cache != "none" ? fs::path(a.tile_cache) : fs::path();
+  nlohmann::json tile_sources = nlohmann::json::object();
+  auto tiles_for = [&](const char* what, const tiledb::TileKey& key) {
+    TileSource source = TileSource::Built;
+    progress.stage(std::string(what) + " tiles", 0, [&] {
+      find_or_build_tiles(db, key, a.generation, record.dump(), say, &source, cache_dir);
     });
-    built_any = built_any || built;
-  }
-  if (fluid_fill == packing::Fill::Tiles) {
-    bool built = false;
-    progress.stage("fluid tiles", 0, [&] {
-      find_or_build_tiles(db, fluid_key, a.generation, record.dump(), say, &built);
-    });
-    built_any = built_any || built;
-  }
+    built_any = built_any || source == TileSource::Built;
+    tile_sources[what] = to_string(source);
+  };
+  if (wall_fill == packing::Fill::Tiles || (!permeability && slab_fill == packing::Fill::Tiles))
+    tiles_for("wall", wall_key);
+  if (fluid_fill == packing::Fill::Tiles) tiles_for("fluid", fluid_key);
   // Pointers only now: building a set may have grown the vector.
   wall_tiles = db.find(wall_key);
   fluid_tiles = db.find(fluid_key);
@@ -648,8 +652,10 @@ int run_run(const RunArgs& a) {
                             {"temperature", s->stats.temperature},
                             {"seed", s->build.seed}});
   record["tiles"] = {{"database", a.tiles_db.empty() ? "(built here)" : a.tiles_db},
+                     {"cache", cache_dir.empty() ? "none" : cache_dir.string()},
                      {"copy", "tiles.h5"},
                      {"sets", tiles_used},
+                     {"source", tile_sources},
                      {"built_here", built_any}};
   const std::array<double, 3> box_lo = layout.box.lo, box_hi = layout.box.hi;
   if (permeability) {
@@ -816,6 +822,10 @@ Command add_run_command(CLI::App& rockprep) {
   app->add_option("--tiles", a->tiles_db,
                   "Tile database to draw from; missing sets are built and added to it (default: "
                   "build them, saved in DIR/tiles.h5)");
+  app->add_option("--tile-cache", a->tile_cache,
+                  "Folder of the shared tile cache, or none (without --tiles: sets found there "
+                  "are not built again; new ones are saved there)")
+      ->capture_default_str();
   a->generation.add_to(app, "tile-");
   app->add_option("--a-fluid", a->a_fluid, "Fluid-fluid (and fluid-slab) A (default -40)");
   app->add_option("--a-organic", a->a_organic,
