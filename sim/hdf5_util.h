@@ -160,6 +160,18 @@ inline void write_string_attribute(hid_t obj, const char* name, const std::strin
 // ---------------------------------------------------------------------------------------------
 // Reading
 
+// Opens `path` read-only with the STRONG close degree; IoError naming `file` when it is missing,
+// not a regular file, or not HDF5.
+inline Handle open_file_for_reading(const std::filesystem::path& path, const std::string& file) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail(file, "", "no such file");
+  if (!std::filesystem::is_regular_file(path, ec)) fail(file, "", "not a regular file");
+  Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot open file");
+  check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot open file");
+  return checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose, file, "",
+                 "cannot open as an HDF5 file (not HDF5, unreadable or damaged)");
+}
+
 inline std::string dims_text(const std::vector<hsize_t>& dims) {
   std::string s = "[";
   for (size_t i = 0; i < dims.size(); ++i) s += (i ? "," : "") + std::to_string(dims[i]);

@@ -269,14 +269,7 @@ void write_particle_file(const fs::path& path, const ParticleSet& p, const Parti
 ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out) {
   silence_hdf5_errors();
   const std::string file = path.string();
-  std::error_code ec;
-  if (!fs::exists(path, ec)) fail(file, "", "no such file");
-  if (!fs::is_regular_file(path, ec)) fail(file, "", "not a regular file");
-
-  Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot open file");
-  check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot open file");
-  Handle f = checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose, file, "",
-                     "cannot open as an HDF5 file (not HDF5, unreadable or damaged)");
+  Handle f = open_file_for_reading(path, file);
   if (H5Lexists(f.get(), "particles", H5P_DEFAULT) <= 0) fail(file, "/particles", "missing");
   Handle g = checked(H5Gopen2(f.get(), "particles", H5P_DEFAULT), H5Gclose, file, "/particles",
                      "not a group");
@@ -369,13 +362,7 @@ ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out)
 std::size_t read_particle_file_count(const fs::path& path) {
   silence_hdf5_errors();
   const std::string file = path.string();
-  std::error_code ec;
-  if (!fs::exists(path, ec)) fail(file, "", "no such file");
-  if (!fs::is_regular_file(path, ec)) fail(file, "", "not a regular file");
-  Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot open file");
-  check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot open file");
-  Handle f = checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose, file, "",
-                     "cannot open as an HDF5 file (not HDF5, unreadable or damaged)");
+  Handle f = open_file_for_reading(path, file);
   if (H5Lexists(f.get(), "particles", H5P_DEFAULT) <= 0) fail(file, "/particles", "missing");
   Handle g = checked(H5Gopen2(f.get(), "particles", H5P_DEFAULT), H5Gclose, file, "/particles",
                      "not a group");

@@ -293,13 +293,7 @@ void write_tile_database(const fs::path& path, const TileDatabase& db) {
 TileDatabase read_tile_database(const fs::path& path) {
   silence_hdf5_errors();
   const std::string file = path.string();
-  std::error_code ec;
-  if (!fs::exists(path, ec)) fail(file, "", "no such file");
-  if (!fs::is_regular_file(path, ec)) fail(file, "", "not a regular file");
-  Handle fapl = checked(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, file, "", "cannot open file");
-  check(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), file, "", "cannot open file");
-  Handle f = checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose, file, "",
-                     "cannot open as an HDF5 file (not HDF5, unreadable or damaged)");
+  Handle f = open_file_for_reading(path, file);
   const std::string format = get_string(f.get(), "format", "/", file);
   if (format != kFormat)
     fail(file, "/@format", "not a mesorock tile database (format '" + format + "')");
