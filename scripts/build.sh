@@ -7,6 +7,9 @@ cd "$(dirname "$0")/.."
 generator=()
 command -v ninja >/dev/null 2>&1 && generator=(-G Ninja)
 [ -f build/CMakeCache.txt ] && generator=()  # keep the generator of an existing build
-cmake -S . -B build "${generator[@]}" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+# MESOROCK_WERROR=ON in the environment: warnings are errors (CI sets it).
+werror=()
+[ -n "${MESOROCK_WERROR:-}" ] && werror=(-DMESOROCK_WERROR="$MESOROCK_WERROR")
+cmake -S . -B build "${generator[@]}" -DCMAKE_BUILD_TYPE=Release "${werror[@]}" "$@" >/dev/null
 cmake --build build --parallel "$(nproc)"
 echo "build: done (binaries in build/bin)"

@@ -20,7 +20,7 @@ void add_watchdog_flag(CLI::App& sub, SolverFlags& flags) {
 
 sim::SimulationOptions solver_options(const SolverFlags& flags,
                                       std::shared_ptr<sim::Communicator> world,
-                                      bool require_device) {
+                                      bool require_device_now) {
   sim::SimulationOptions so;
   if (flags.backend == "cpu")
     so.backend = sim::BackendKind::CPU;
@@ -32,11 +32,14 @@ sim::SimulationOptions solver_options(const SolverFlags& flags,
   so.comm = std::move(world);
   so.watchdog.enabled = flags.watchdog != "off";
   so.watchdog.runaway_displacement = flags.runaway_displacement;
-  if (require_device && so.backend == sim::BackendKind::CUDA) {
-    const std::string why = sim::cuda_unavailable_reason();
-    if (!why.empty()) throw DeviceError(why);
-  }
+  if (require_device_now) require_device(so);
   return so;
+}
+
+void require_device(const sim::SimulationOptions& so) {
+  if (so.backend != sim::BackendKind::CUDA) return;
+  const std::string why = sim::cuda_unavailable_reason();
+  if (!why.empty()) throw DeviceError(why);
 }
 
 FlowCommand add_study_flow_command(CLI::App& rockflow) {

@@ -27,11 +27,13 @@ void add_solver_flags(CLI::App& sub, SolverFlags& flags, bool backend = true);
 void add_watchdog_flag(CLI::App& sub, SolverFlags& flags);
 
 // The solver options the flags ask for (`world`: the MPI ranks under mpirun, else null). With
-// `require_device`, fails with one line when CUDA is asked for but absent (never a silent
+// `require_device_now`, fails with one line when CUDA is asked for but absent (never a silent
 // fall-back to the CPU).
 sim::SimulationOptions solver_options(const SolverFlags& flags,
                                       std::shared_ptr<sim::Communicator> world,
-                                      bool require_device = true);
+                                      bool require_device_now = true);
+// Fails with one line when `so` asks for CUDA and none is usable.
+void require_device(const sim::SimulationOptions& so);
 
 struct FlowCommand {
   CLI::App* app = nullptr;

@@ -28,7 +28,7 @@ FlowCommand add_validate_command(CLI::App& rockflow) {
   add_watchdog_flag(*val, a->flags);
   return {
       val, [a](std::shared_ptr<sim::Communicator> world) {
-        const sim::SimulationOptions so = solver_options(a->flags, world, false);
+        const sim::SimulationOptions so = solver_options(a->flags, std::move(world), false);
         if (a->list) {
           for (const auto& c : validation_cases()) std::cout << c.name << "\n";
           return static_cast<int>(kExitOk);
@@ -36,7 +36,7 @@ FlowCommand add_validate_command(CLI::App& rockflow) {
         if (a->case_name.empty()) throw ConfigError("validate: name a case (see --list)");
         const ValidationCase* c = find_validation_case(a->case_name);
         if (!c) throw ConfigError("validate: unknown case '" + a->case_name + "' (see --list)");
-        solver_options(a->flags, world);  // CUDA asked for and absent: one line, here
+        require_device(so);  // CUDA asked for and absent: one line, once the case is known
         const bool root = !so.comm || so.comm->rank() == 0;  // rank 0 alone prints
         ValidateOptions vo;
         vo.size = a->size == "full" ? CaseSize::Full : CaseSize::Small;
