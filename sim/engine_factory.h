@@ -6,13 +6,9 @@
 
 #include "sim/simulation.h"
 #include "sim/state.h"
+#include "sim/validate_inputs.h"
 
 namespace mesorock::sim {
-
-// Throws ConfigError naming the first problem with the inputs. step: the step the particles are at
-// (a resumed run; a virtual wall lifted before it checks nothing).
-void validate_inputs(const Model& model, const BoxSpec& box, const ParticleSet& particles,
-                     double dt, std::uint64_t step = 0);
 
 // Fills the host state (pair table, effects, box, cell grid, particles in the run's precision).
 template <class Real>

@@ -7,7 +7,7 @@
 
 #include "mesorock/errors.h"
 #include "sim/domain/communicator.h"
-#include "sim/domain/distributed.h"
+#include "sim/domain/domain.h"
 #include "sim/engine_cpu.h"
 #include "sim/engine_factory.h"
 #include "sim/host_reductions.h"
@@ -26,10 +26,6 @@ namespace {
 // Entries of the wall model's kappa(phi) table over phi in [0, 1/2] (linear interpolation between
 // them; kappa varies smoothly except near phi = 1/2, where the cap takes over).
 constexpr int kKappaEntries = 256;
-
-void check_finite(double v, const std::string& what) {
-  if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
-}
 
 // Whether the solid grid spans the box edge along axis a (then its indices wrap on a periodic
 // axis): same start and length to a millionth of the edge.
@@ -64,200 +60,6 @@ SolidView<Real> solid_view_of(const SolidSpec& spec, const BoxSpec& box) {
 }
 template SolidView<float> solid_view_of<float>(const SolidSpec&, const BoxSpec&);
 template SolidView<double> solid_view_of<double>(const SolidSpec&, const BoxSpec&);
-
-// step: the step the particles are at (a virtual wall that was lifted before it checks nothing).
-void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, double dt,
-                     std::uint64_t step) {
-  if (m.ntypes() < 1) throw ConfigError("model has no particle types");
-  if (m.ntypes() > 32) throw ConfigError("at most 32 particle types are supported");
-  if (m.pairs.size() != static_cast<size_t>(m.ntypes() * m.ntypes()))
-    throw ConfigError("pair table size does not match the number of types");
-  check_finite(dt, "dt");
-  if (!(dt > 0)) throw ConfigError("dt must be positive");
-  check_finite(m.rd, "rd");
-  if (!(m.rd > 0 && m.rd <= 1)) throw ConfigError("rd must be in (0, 1] (units of rc)");
-  check_finite(m.kBT, "kBT");
-  if (!(m.kBT > 0)) throw ConfigError("kBT must be positive");
-  if (m.body_force_axis < 0 || m.body_force_axis > 2)
-    throw ConfigError("body force axis must be 0, 1 or 2 (x, y, z)");
-  check_finite(m.lambda, "lambda");
-  if (!(m.lambda >= 0 && m.lambda <= 1)) throw ConfigError("lambda must be in [0, 1]");
-  for (int a = 0; a < m.ntypes(); ++a) {
-    for (int b = 0; b < m.ntypes(); ++b) {
-      const PairSpec& q = m.pair(a, b);
-      const PairSpec& r = m.pair(b, a);
-      if (q.A != r.A || q.B != r.B || q.gamma != r.gamma)
-        throw ConfigError("pair table is not symmetric for types " + m.types[a].name + ", " +
-                          m.types[b].name);
-      check_finite(q.A, "A");
-      check_finite(q.B, "B");
-      check_finite(q.gamma, "gamma");
-      if (q.gamma < 0) throw ConfigError("gamma must be >= 0");
-      if (m.conservative == ConservativeKind::DPD && q.B != 0)
-        throw ConfigError("B is only meaningful for the mdpd conservative force");
-    }
-  }
-  if (m.solid.mask) {
-    const SolidMask& g = *m.solid.mask;
-    g.check("solid grid");
-    if (g.dims[0] > 1 << 24 || g.dims[1] > 1 << 24 || g.dims[2] > 1 << 24)
-      throw ConfigError("solid grid: at most 2^24 voxels along an axis");
-    check_finite(m.solid.stop_depth, "solid stop depth");
-    if (!(m.solid.stop_depth > 0) || m.solid.stop_depth > 4)
-      throw ConfigError("solid stop depth must be in (0, 4] rc");
-    for (int a = 0; a < 3; ++a)
-      if (box.periodic[a] && !grid_spans_axis(g, box, a) &&
-          g.origin[a] + g.dims[a] * g.voxel[a] > box.lo[a] + box.length(a) * (1 + 1e-6))
-        throw ConfigError(
-            "solid grid: it extends past the box along a periodic axis without spanning it");
-  }
-  for (int a = 0; a < 3; ++a) {
-    check_finite(box.lo[a], "box lo");
-    check_finite(box.hi[a], "box hi");
-    const double len = box.length(a);
-    if (!(len > 0)) throw ConfigError("box hi must exceed lo on every axis");
-    // Minimum image needs L >= 2 rc, else a pair would interact through two images.
-    if (box.periodic[a] && len < 2.0)
-      throw ConfigError("a periodic box edge must be at least 2 rc long");
-  }
-  if (m.wall_model.enabled) {
-    const WallModelSpec& w = m.wall_model;
-    check_finite(w.wall_density, "wall model wall density");
-    if (!(w.wall_density > 0)) throw ConfigError("wall model wall density must be positive");
-    check_finite(w.penetration_threshold, "wall model penetration threshold");
-    if (!(w.penetration_threshold > 0 && w.penetration_threshold < 1))
-      throw ConfigError("wall model penetration threshold must be in (0, 1)");
-    check_finite(w.slip_factor, "wall model slip factor");
-    if (!(w.slip_factor >= 0 && w.slip_factor <= 1))
-      throw ConfigError("wall model slip factor must be in [0, 1] (1 = no slip)");
-    check_finite(w.max_dissipation_factor, "wall model max dissipation factor");
-    if (!(w.max_dissipation_factor >= 1))
-      throw ConfigError("wall model max dissipation factor must be at least 1");
-    const std::uint32_t mask = m.wall_mask();
-    if (mask == 0)
-      throw ConfigError("the wall model needs wall particles: no type is frozen or named as wall");
-    for (int t = 0; t < m.ntypes(); ++t)
-      if (((mask >> t) & 1u) && !m.types[t].frozen)
-        throw ConfigError("wall type " + m.types[t].name +
-                          " is not frozen (the wall model supports frozen walls only)");
-    if (!m.thermostat)
-      throw ConfigError(
-          "the wall model needs the thermostat (its no-slip condition is a dissipation)");
-  }
-  if (m.virtual_walls.size() > static_cast<size_t>(kMaxVirtualWalls))
-    throw ConfigError("at most " + std::to_string(kMaxVirtualWalls) + " virtual walls");
-  for (size_t k = 0; k < m.virtual_walls.size(); ++k) {
-    const VirtualWallSpec& w = m.virtual_walls[k];
-    const std::string name = "virtual wall " + std::to_string(k + 1);
-    if (w.axis < 0 || w.axis > 2) throw ConfigError(name + ": axis must be 0, 1 or 2");
-    check_finite(w.position, name + " position");
-    const double lo = box.lo[static_cast<size_t>(w.axis)], hi = box.hi[static_cast<size_t>(w.axis)];
-    if (!(w.position > lo && w.position < hi))
-      throw ConfigError(name + ": position must lie inside the box");
-    if (w.types == 0) throw ConfigError(name + ": blocks no type");
-  }
-  if (m.rigid_slabs.size() > static_cast<size_t>(kMaxRigidSlabs))
-    throw ConfigError("at most " + std::to_string(kMaxRigidSlabs) + " rigid slabs");
-  for (size_t k = 0; k < m.rigid_slabs.size(); ++k) {
-    const RigidSlabSpec& r = m.rigid_slabs[k];
-    if (r.type < 0 || r.type >= m.ntypes()) throw ConfigError("rigid slab of an unknown type");
-    const std::string name = "rigid slab " + m.types[static_cast<size_t>(r.type)].name;
-    if (m.types[static_cast<size_t>(r.type)].frozen)
-      throw ConfigError(name + ": a slab type must not be frozen (it moves as a rigid body)");
-    if (m.wall_model.enabled && ((m.wall_mask() >> r.type) & 1u))
-      throw ConfigError(name + ": a slab type cannot also be a wall of the wall model");
-    if (r.axis < 0 || r.axis > 2) throw ConfigError(name + ": axis must be 0, 1 or 2");
-    check_finite(r.applied_pressure, name + " applied pressure");
-    for (size_t q = 0; q < k; ++q)
-      if (m.rigid_slabs[q].type == r.type) throw ConfigError(name + ": listed twice");
-    if (std::count(p.type.begin(), p.type.end(), r.type) == 0)
-      throw ConfigError(name + ": the slab has no particles");
-  }
-  if (m.injections.size() > static_cast<size_t>(kMaxInjections))
-    throw ConfigError("at most " + std::to_string(kMaxInjections) + " injection boundaries");
-  for (size_t k = 0; k < m.injections.size(); ++k) {
-    const InjectionSpec& q = m.injections[k];
-    const std::string name = "injection " + std::to_string(k + 1);
-    if (q.inject_type < 0 || q.inject_type >= m.ntypes())
-      throw ConfigError(name + ": injected type out of range");
-    if (!m.is_mobile(q.inject_type))
-      throw ConfigError(name + ": the injected type must be mobile (not frozen, not a slab)");
-    if (q.eject_types == 0) throw ConfigError(name + ": no type may be ejected");
-    for (int t = 0; t < 32; ++t) {
-      if (!((q.eject_types >> t) & 1u)) continue;
-      if (t >= m.ntypes()) throw ConfigError(name + ": ejected type out of range");
-      if (!m.is_mobile(t))
-        throw ConfigError(name + ": ejected type " + m.types[static_cast<size_t>(t)].name +
-                          " must be mobile (not frozen, not a slab)");
-    }
-    bool overlap = true;
-    for (int a = 0; a < 3; ++a) {
-      for (double c : {q.inlet_lo[a], q.inlet_hi[a], q.outlet_lo[a], q.outlet_hi[a]}) {
-        check_finite(c, name + " inlet/outlet corner");
-        if (c < box.lo[a] || c > box.hi[a])
-          throw ConfigError(name + ": inlet and outlet must lie inside the box");
-      }
-      if (!(q.inlet_hi[a] > q.inlet_lo[a]) || !(q.outlet_hi[a] > q.outlet_lo[a]))
-        throw ConfigError(name + ": inlet and outlet need hi > lo on every axis");
-      overlap = overlap && q.inlet_lo[a] < q.outlet_hi[a] && q.outlet_lo[a] < q.inlet_hi[a];
-    }
-    if (overlap) throw ConfigError(name + ": inlet and outlet boxes overlap");
-    if (q.every < 1) throw ConfigError(name + ": every must be at least 1 step");
-    if (q.per_event < 1 || q.per_event > 1024)
-      throw ConfigError(name + ": particles per event must be 1 to 1024");
-    if (!(q.stop_step > q.start_step)) throw ConfigError(name + ": stop step must follow start");
-  }
-  const size_t n = p.size();
-  if (p.y.size() != n || p.z.size() != n || p.vx.size() != n || p.vy.size() != n ||
-      p.vz.size() != n || p.type.size() != n || p.id.size() != n)
-    throw ConfigError("particle arrays have different lengths");
-  if (n > static_cast<size_t>(2147483647)) throw ConfigError("too many particles for one rank");
-  const SolidView<double> solid = solid_view_of<double>(m.solid, box);
-  auto is_slab = [&](int t) {
-    for (const RigidSlabSpec& r : m.rigid_slabs)
-      if (r.type == t) return true;
-    return false;
-  };
-  for (size_t i = 0; i < n; ++i) {
-    if (p.type[i] < 0 || p.type[i] >= m.ntypes()) {
-      std::ostringstream s;
-      s << "particle " << p.id[i] << " has type " << p.type[i] << " outside 0.." << m.ntypes() - 1;
-      throw ConfigError(s.str());
-    }
-    const double c[6] = {p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i]};
-    for (double v : c)
-      if (!std::isfinite(v)) {
-        std::ostringstream s;
-        s << "particle " << p.id[i] << " has a non-finite position or velocity";
-        throw ConfigError(s.str());
-      }
-    for (int a = 0; a < 3; ++a) {
-      if (c[a] < box.lo[a] || c[a] > box.hi[a]) {
-        std::ostringstream s;
-        s << "particle " << p.id[i] << " lies outside the box";
-        throw ConfigError(s.str());
-      }
-    }
-    if (m.solid.mask && !m.types[static_cast<size_t>(p.type[i])].frozen &&
-        solid.in_solid(c[0], c[1], c[2]) && !is_slab(p.type[i])) {
-      std::ostringstream s;
-      s << "particle " << p.id[i] << " (type " << m.types[static_cast<size_t>(p.type[i])].name
-        << ") starts inside a solid voxel of the solid grid, at (" << c[0] << ", " << c[1] << ", "
-        << c[2] << ")";
-      throw ConfigError(s.str());
-    }
-    for (size_t k = 0; k < m.virtual_walls.size(); ++k) {
-      const VirtualWallSpec& w = m.virtual_walls[k];
-      if (w.until_step <= step || !((w.types >> p.type[i]) & 1u)) continue;
-      const double d = c[w.axis] - w.position;
-      if (w.keep_below ? d >= 0 : d < 0) {
-        std::ostringstream s;
-        s << "particle " << p.id[i] << " starts on the blocked side of virtual wall " << k + 1;
-        throw ConfigError(s.str());
-      }
-    }
-  }
-}
 
 template <class Real>
 void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
@@ -451,196 +253,403 @@ template void init_host_state<double>(HostState<double>&, const Model&, const Bo
 
 namespace {
 
+// The Domain of a run on one rank: the whole box, no hooks, reductions over itself.
+template <class Real>
+class OneRank final : public Domain<Real> {
+ public:
+  explicit OneRank(RankSolver<Real>& solver) : solver_(solver), self_(make_self_communicator()) {}
+  bool decomposed() const override { return false; }
+  Communicator& comm() const override { return *self_; }
+  StepHooks<Real>* hooks() override { return nullptr; }
+  void init_state(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
+                  const SimulationOptions& opt, const SimulationState* resume) override {
+    init_host_state(solver_.host, model, box, p, dt, opt);
+    if (resume) load_state(solver_.host, *resume);
+  }
+  // Storage is sorted by cell; origin is each particle's index in the caller's order.
+  std::size_t original_index(std::int32_t origin, std::int64_t) const override {
+    return static_cast<std::size_t>(origin);
+  }
+
+ private:
+  RankSolver<Real>& solver_;
+  std::shared_ptr<Communicator> self_;
+};
+
+// The Simulation of one rank or many: this rank's solver and the Domain that says how the box is
+// shared. Observables are sums over this rank's own particles, reduced over the ranks.
 template <class Real>
 class SimulationImpl final : public Simulation {
  public:
-  // resume: a saved state of a run of this model (else the run starts from p at step 0).
+  // resume: a saved state of a run of this model whose particles are p (in the original order
+  // when decomposed: SimulationState::in_original_order); else the run starts from p at step 0.
   SimulationImpl(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
-                 const SimulationOptions& opt, const SimulationState* resume = nullptr)
-      : model_(model), box_(box), dt_(dt), on_run_(opt.on_run) {
-    const auto poll = [&opt] {
-      if (opt.interrupt_check) opt.interrupt_check();
+                 const SimulationOptions& opt, bool decomposed,
+                 const SimulationState* resume = nullptr)
+      : model_(model),
+        box_(box),
+        dt_(dt),
+        total_(p.size()),
+        on_run_(opt.on_run),
+        domain_(decomposed ? make_decomposed_domain<Real>(solver_, opt)
+                           : std::make_unique<OneRank<Real>>(solver_)) {
+    // A decomposed set-up is collective: a rank that stopped alone would leave the others waiting.
+    const std::function<void()> interrupt_check =
+        decomposed ? std::function<void()>{} : opt.interrupt_check;
+    const auto poll = [&interrupt_check] {
+      if (interrupt_check) interrupt_check();
     };
-    init_host_state(state_, model, box, p, dt, opt);
+    domain_->init_state(model, box, p, dt, opt, resume);
     poll();
-    HostState<Real>& s = state_;
     dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
-    engine_ = make_engine<Real>(model, opt);
-    engine_->set_interrupt_check(opt.interrupt_check);
+    solver_.engine = make_engine<Real>(model, opt);
+    Engine<Real>& engine = *solver_.engine;
+    engine.set_interrupt_check(interrupt_check);
     if (resume) {
-      load_state(s, *resume);
-      poll();
-      engine_->restore(s, resume->wall_corrections);
+      // The run's wall-correction count goes to rank 0 alone (wall_corrections() sums them).
+      engine.restore(solver_.host, rank() == 0 ? resume->wall_corrections : 0, domain_->hooks());
     } else {
-      engine_->initialize(s);
+      engine.initialize(solver_.host, domain_->hooks());
     }
-    engine_->set_interrupt_check({});
+    engine.set_interrupt_check({});
     poll();
-    engine_->set_watchdog(opt.watchdog);
+    engine.set_watchdog(opt.watchdog);
     // The initial forces may live only on the device: the next read downloads them.
-    host_current_ = false;
+    solver_.host_current = false;
+    domain_->started();
   }
 
   void run(std::uint64_t steps) override {
-    engine_->advance(steps);
-    host_current_ = false;
-    if (on_run_) on_run_(steps, size());
+    while (steps > 0) {
+      domain_->before_steps();
+      const std::uint64_t n = domain_->steps_in_one_go(steps);
+      solver_.engine->advance(n);
+      steps -= n;
+      solver_.host_current = false;
+      domain_->after_steps();
+      if (on_run_) on_run_(n, total_);
+    }
   }
   void set_dt(double dt) override {
     if (!(dt > 0) || !std::isfinite(dt)) throw ConfigError("dt must be a positive number");
     dt_ = dt;
-    engine_->set_dt(static_cast<Real>(dt));
+    solver_.engine->set_dt(static_cast<Real>(dt));
   }
   double dt() const override { return dt_; }
-  std::uint64_t step() const override { return engine_->step(); }
-  size_t size() const override { return static_cast<size_t>(state_.size()); }
+  std::uint64_t step() const override { return solver_.engine->step(); }
+  size_t size() const override { return total_; }
 
   ParticleSet particles() override {
-    sync();
+    struct Rec {
+      double x[3], v[3];
+      std::int32_t type, origin;
+      std::int64_t id;
+    };
+    const HostState<Real>& s = solver_.host;
+    std::vector<Rec> mine;
+    solver_.for_owned([&](int i) {
+      mine.push_back({{double(s.x[i]), double(s.y[i]), double(s.z[i])},
+                      {double(s.vx[i]), double(s.vy[i]), double(s.vz[i])},
+                      s.type[i],
+                      s.origin[i],
+                      s.id[i]});
+    });
     ParticleSet p;
-    p.x = in_original_order(state_.x);
-    p.y = in_original_order(state_.y);
-    p.z = in_original_order(state_.z);
-    p.vx = in_original_order(state_.vx);
-    p.vy = in_original_order(state_.vy);
-    p.vz = in_original_order(state_.vz);
-    p.type = in_original_order<std::int32_t, std::int32_t>(state_.type);
-    p.id = in_original_order<std::int64_t, std::int64_t>(state_.id);
+    for (auto* a : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz}) a->resize(total_);
+    p.type.resize(total_);
+    p.id.resize(total_);
+    for (const Rec& r : all_ranks(std::move(mine))) {
+      const size_t k = domain_->original_index(r.origin, r.id);
+      p.x[k] = r.x[0], p.y[k] = r.x[1], p.z[k] = r.x[2];
+      p.vx[k] = r.v[0], p.vy[k] = r.v[1], p.vz[k] = r.v[2];
+      p.type[k] = r.type;
+      p.id[k] = r.id;
+    }
     return p;
   }
-
-  std::vector<double> densities() override {
-    sync();
-    return in_original_order(state_.rho);
-  }
-
+  std::vector<double> densities() override { return gather_field(solver_.host.rho); }
   std::vector<double> boundary_volume_fractions() override {
-    if (state_.bvf.empty()) return {};
-    sync();
-    return in_original_order(state_.bvf);
+    if (!model_.wall_model.enabled) return {};
+    return gather_field(solver_.host.bvf);
   }
-
-  std::uint64_t wall_corrections() const override { return engine_->wall_corrections(); }
-
-  std::vector<RigidSlabState> rigid_slabs() override {
-    sync();
-    std::vector<RigidSlabState> out;
-    for (const RigidSlabBody& b : state_.slab_bodies) {
-      RigidSlabState r;
-      r.type = model_.types[static_cast<size_t>(b.type)].name;
-      r.axis = b.axis;
-      r.velocity = b.velocity;
-      r.force = b.force;
-      r.applied_force = b.applied_force;
-      r.mass = b.mass;
-      const std::vector<Real>& pos = b.axis == 0 ? state_.x : (b.axis == 1 ? state_.y : state_.z);
-      double sum = 0;
-      for (int i = 0; i < state_.size(); ++i)
-        if (state_.type[i] == b.type) sum += pos[i];
-      r.position = b.mass > 0 ? sum / b.mass : 0;
-      out.push_back(r);
-    }
-    return out;
-  }
-
   std::array<std::vector<double>, 3> forces() override {
-    sync();
-    return {in_original_order(state_.fx), in_original_order(state_.fy),
-            in_original_order(state_.fz)};
+    const HostState<Real>& s = solver_.host;
+    return {gather_field(s.fx), gather_field(s.fy), gather_field(s.fz)};
   }
-
+  std::uint64_t wall_corrections() const override {
+    std::uint64_t c = solver_.engine->wall_corrections();
+    comm().sum(&c, 1);
+    return c;
+  }
+  std::vector<RigidSlabState> rigid_slabs() override;
   double kinetic_temperature() override {
-    sync();
-    const MobileSums m = mobile_sums(state_, [](int) { return true; });
-    return m.count > 0 ? m.v2 / (3.0 * m.count) : 0.0;
+    const MobileSums m = mobile_sums(solver_.synced(), owned());
+    double s[2] = {m.v2, m.count};
+    comm().sum(s, 2);
+    return s[1] > 0 ? s[0] / (3.0 * s[1]) : 0.0;
   }
-
   std::array<double, 3> momentum() override {
-    sync();
-    return mobile_sums(state_, [](int) { return true; }).p;
+    std::array<double, 3> p = mobile_sums(solver_.synced(), owned()).p;
+    comm().sum(p.data(), 3);
+    return p;
   }
-
+  SolidIntrusion solid_intrusion() override;
   StressSample stress() override { return stress_of(VirialRegion<Real>{}, box_.volume()); }
-
   StressSample region_stress(const RegionSelection& r) override {
     double volume = 1;
     const VirialRegion<Real> region = virial_region_of<Real>(r, &volume);
     return stress_of(region, volume);
   }
-
-  std::vector<InjectionCounts> injections() override { return engine_->injection_counts(); }
-
-  SolidIntrusion solid_intrusion() override {
-    if (!state_.solid.enabled()) return {};
-    sync();
-    return solid_intrusion_of(state_, [](int) { return true; });
+  std::vector<InjectionCounts> injections() override {
+    std::vector<InjectionCounts> c = solver_.engine->injection_counts();
+    std::vector<std::uint64_t> injected(c.size());
+    for (size_t k = 0; k < c.size(); ++k) injected[k] = c[k].injected;
+    if (!injected.empty()) comm().sum(injected.data(), static_cast<int>(injected.size()));
+    // Every rank sees the same events; a missed one is missed on all of them.
+    for (size_t k = 0; k < c.size(); ++k) c[k].injected = injected[k];
+    return c;
   }
-
- private:
-  StressSample stress_of(const VirialRegion<Real>& region, double volume) {
-    sync();
-    StressSample out;
-    out.volume = volume;
-    const double inv_v = 1.0 / out.volume;
-    const std::array<double, 6> kinetic = kinetic_stress_sums(state_, region);
-    const VirialSums w = engine_->virial(region);
-    for (int c = 0; c < 6; ++c) {
-      out.kinetic[c] = kinetic[c] * inv_v;
-      out.conservative[c] = w.conservative[c] * inv_v;
-      out.dissipative[c] = w.dissipative[c] * inv_v;
-      out.random[c] = w.random[c] * inv_v;
-    }
-    return out;
-  }
-
- public:
   std::vector<double> bin_sums(const BinGrid& grid) override {
     check_bin_grid(grid);
     std::vector<double> sums;
-    engine_->bin_sums(grid, sums);
+    solver_.engine->bin_sums(grid, sums);
+    comm().sum(sums.data(), static_cast<int>(sums.size()));
     return sums;
   }
 
   const Model& model() const override { return model_; }
   const BoxSpec& box() const override { return box_; }
-  std::string backend_name() const override { return engine_->name(); }
+  std::string backend_name() const override { return solver_.engine->name(); }
   std::string pass_name() const override { return pass_name_; }
-  std::size_t device_bytes() const override { return engine_->device_bytes(); }
-  std::string profile_report() const override { return engine_->profile_report(); }
+  std::size_t device_bytes() const override { return solver_.engine->device_bytes(); }
+  std::string profile_report() const override { return solver_.engine->profile_report(); }
+  int rank() const override { return comm().rank(); }
+  int ranks() const override { return comm().size(); }
+  std::vector<double> rank_costs() override { return domain_->rank_costs(); }
+  std::string decomposition_report() const override { return domain_->report(); }
+  // One rank saves its cell-sorted storage (a resume continues bit for bit); a decomposition
+  // gathers the original order (no single storage order exists).
   SimulationState state() override {
-    sync();
-    SimulationState out = save_state(state_);
+    if (domain_->decomposed()) return gathered_state();
+    SimulationState out = save_state(solver_.synced());
     out.dt = dt_;
-    out.wall_corrections = engine_->wall_corrections();
+    out.wall_corrections = solver_.engine->wall_corrections();
     return out;
   }
 
  private:
-  // Storage is sorted by cell; callers see particles in the order they were given.
-  template <class In, class Out = double>
-  std::vector<Out> in_original_order(const std::vector<In>& a) const {
-    std::vector<Out> out(a.size());
-    for (size_t k = 0; k < a.size(); ++k)
-      out[static_cast<size_t>(state_.origin[k])] = static_cast<Out>(a[k]);
+  Communicator& comm() const { return domain_->comm(); }
+  auto owned() const {
+    return [&s = solver_.host](int i) { return s.origin[i] >= 0; };
+  }
+  // Every rank's records, on every rank (one rank: its own, not copied).
+  template <class Rec>
+  std::vector<Rec> all_ranks(std::vector<Rec>&& mine) const {
+    if (ranks() == 1) return std::move(mine);
+    return comm().allgather_records(mine);
+  }
+  // A per-particle array of every rank's own particles, in the caller's original order.
+  std::vector<double> gather_field(const std::vector<Real>& values) {
+    struct Rec {
+      std::int64_t id;
+      std::int32_t origin;
+      double v;
+    };
+    const HostState<Real>& s = solver_.host;
+    std::vector<Rec> mine;
+    solver_.for_owned([&](int i) {
+      mine.push_back({s.id[i], s.origin[i], double(values[static_cast<size_t>(i)])});
+    });
+    std::vector<double> out(total_, 0.0);
+    for (const Rec& r : all_ranks(std::move(mine)))
+      out[domain_->original_index(r.origin, r.id)] = r.v;
     return out;
   }
-
-  void sync() {
-    if (!host_current_) {
-      engine_->download(state_);
-      host_current_ = true;
-    }
-  }
+  StressSample stress_of(const VirialRegion<Real>& region, double volume);
+  SimulationState gathered_state();
 
   Model model_;
   BoxSpec box_;
   double dt_;
-  HostState<Real> state_;
-  std::unique_ptr<Engine<Real>> engine_;
-  std::string pass_name_;
-  bool host_current_ = false;
+  size_t total_;  // over all ranks; injection moves particles, never adds or removes them
   std::function<void(std::uint64_t, std::size_t)> on_run_;
+  std::string pass_name_;
+  RankSolver<Real> solver_;  // before domain_, which keeps a reference to it
+  std::unique_ptr<Domain<Real>> domain_;
 };
+
+template <class Real>
+std::vector<RigidSlabState> SimulationImpl<Real>::rigid_slabs() {
+  const HostState<Real>& s = solver_.synced();
+  std::vector<double> sums(s.slab_bodies.size(), 0.0);
+  for (size_t k = 0; k < sums.size(); ++k) {
+    const RigidSlabBody& b = s.slab_bodies[k];
+    const std::vector<Real>& pos = b.axis == 0 ? s.x : (b.axis == 1 ? s.y : s.z);
+    solver_.for_owned([&](int i) {
+      if (s.type[i] == b.type) sums[k] += pos[i];
+    });
+  }
+  if (!sums.empty()) comm().sum(sums.data(), static_cast<int>(sums.size()));
+  std::vector<RigidSlabState> out;
+  for (size_t k = 0; k < sums.size(); ++k) {
+    const RigidSlabBody& b = s.slab_bodies[k];
+    RigidSlabState r;
+    r.type = model_.types[static_cast<size_t>(b.type)].name;
+    r.axis = b.axis;
+    r.velocity = b.velocity;
+    r.force = b.force;
+    r.applied_force = b.applied_force;
+    r.mass = b.mass;
+    r.position = b.mass > 0 ? sums[k] / b.mass : 0;
+    out.push_back(r);
+  }
+  return out;
+}
+
+template <class Real>
+SolidIntrusion SimulationImpl<Real>::solid_intrusion() {
+  if (!solver_.host.solid.enabled()) return {};
+  const SolidIntrusion r = solid_intrusion_of(solver_.synced(), owned());
+  // The counts add up; the deepest particle travels from its rank (depth first, then id).
+  std::uint64_t inside = r.inside;
+  comm().sum(&inside, 1);
+  double deepest[5] = {r.deepest_id >= 0 ? r.max_depth : -1.0, 0, 0, 0, 0};
+  double best = deepest[0];
+  comm().max(&best, 1);
+  std::uint64_t id = r.deepest_id >= 0 && deepest[0] == best
+                         ? static_cast<std::uint64_t>(r.deepest_id)
+                         : ~std::uint64_t(0);
+  comm().min(&id, 1);
+  if (id != ~std::uint64_t(0) && static_cast<std::int64_t>(id) == r.deepest_id) {
+    for (int a = 0; a < 3; ++a) deepest[1 + a] = r.deepest_position[static_cast<size_t>(a)];
+    deepest[4] = 1;
+  } else {
+    for (double& d : deepest) d = 0;
+  }
+  comm().sum(deepest + 1, 4);
+  SolidIntrusion out;
+  out.available = true;
+  out.inside = inside;
+  if (id != ~std::uint64_t(0)) {
+    out.max_depth = best;
+    out.deepest_id = static_cast<std::int64_t>(id);
+    for (int a = 0; a < 3; ++a) out.deepest_position[static_cast<size_t>(a)] = deepest[1 + a];
+  }
+  return out;
+}
+
+template <class Real>
+StressSample SimulationImpl<Real>::stress_of(const VirialRegion<Real>& region, double volume) {
+  double sums[24] = {};
+  const std::array<double, 6> kinetic =
+      kinetic_stress_sums(solver_.synced(), region);  // ghosts are never in a region
+  const VirialSums w = solver_.engine->virial(region);
+  for (int c = 0; c < 6; ++c) {
+    sums[c] = kinetic[c];
+    sums[6 + c] = w.conservative[c];
+    sums[12 + c] = w.dissipative[c];
+    sums[18 + c] = w.random[c];
+  }
+  comm().sum(sums, 24);
+  // One rank has always scaled by 1 / V and a decomposition divided by V: each keeps its
+  // rounding, so its outputs stay what they were, bit for bit.
+  const double inv_v = 1.0 / volume;
+  const bool divide = domain_->decomposed();
+  auto per_volume = [&](double x) { return divide ? x / volume : x * inv_v; };
+  StressSample out;
+  out.volume = volume;
+  for (int c = 0; c < 6; ++c) {
+    out.kinetic[c] = per_volume(sums[c]);
+    out.conservative[c] = per_volume(sums[6 + c]);
+    out.dissipative[c] = per_volume(sums[12 + c]);
+    out.random[c] = per_volume(sums[18 + c]);
+  }
+  return out;
+}
+
+// Every rank's own particles gathered in the original order (origin = 0, 1, ...), on every rank:
+// a checkpoint of it resumes on any number of ranks, one included. It continues the same
+// physics, not bit for bit: storage order (so the order of force sums) and the regions of the
+// re-balances are not kept.
+template <class Real>
+SimulationState SimulationImpl<Real>::gathered_state() {
+  // One record per owned particle; arrays the model does not use (v~ without a thermostat, phi
+  // without the wall model) travel as zeros and are left out of the state.
+  struct Rec {
+    double v[14];  // x y z, v, v~, f, rho, phi
+    std::int64_t id;
+    std::int32_t type, origin;
+  };
+  const HostState<Real>& s = solver_.synced();
+  const std::vector<Real>* in[14] = {&s.x,   &s.y,   &s.z,  &s.vx, &s.vy, &s.vz,  &s.vex,
+                                     &s.vey, &s.vez, &s.fx, &s.fy, &s.fz, &s.rho, &s.bvf};
+  std::vector<Rec> mine;
+  solver_.for_owned([&](int i) {
+    Rec r{};
+    for (int a = 0; a < 14; ++a)
+      if (!in[a]->empty()) r.v[a] = double((*in[a])[static_cast<size_t>(i)]);
+    r.id = s.id[i];
+    r.type = s.type[i];
+    r.origin = s.origin[i];
+    mine.push_back(r);
+  });
+  SimulationState out;
+  out.precision = std::is_same_v<Real, float> ? Precision::Single : Precision::Double;
+  out.step = solver_.engine->step();
+  out.dt = dt_;
+  std::vector<double>* to[14] = {&out.x,   &out.y,   &out.z,  &out.vx, &out.vy, &out.vz,  &out.vex,
+                                 &out.vey, &out.vez, &out.fx, &out.fy, &out.fz, &out.rho, &out.bvf};
+  const bool ve = model_.thermostat, walls = model_.wall_model.enabled;
+  for (int a = 0; a < 14; ++a) {
+    const bool present = a == 13 ? walls : (a >= 6 && a <= 8 ? ve : true);
+    if (present) to[a]->assign(total_, 0.0);
+  }
+  out.type.assign(total_, 0);
+  out.id.assign(total_, 0);
+  for (const Rec& r : all_ranks(std::move(mine))) {
+    const size_t k = domain_->original_index(r.origin, r.id);
+    for (int a = 0; a < 14; ++a)
+      if (!to[a]->empty()) (*to[a])[k] = r.v[a];
+    out.type[k] = r.type;
+    out.id[k] = r.id;
+  }
+  out.origin.resize(total_);
+  for (size_t k = 0; k < total_; ++k) out.origin[k] = static_cast<std::int32_t>(k);
+  out.slabs = s.slab_bodies;  // the same on every rank (their forces are summed)
+  out.wall_corrections = wall_corrections();
+  return out;
+}
+
+// Whether the options cut the box into regions: several ranks, or one when forced (rockflow
+// bench --decompose measures the decomposition's own cost that way).
+bool decomposes(const SimulationOptions& options) {
+  return options.comm && (options.comm->size() > 1 || options.decomposition.force);
+}
+
+void require_backend(const SimulationOptions& options) {
+  if (options.backend == BackendKind::CUDA) {
+    const std::string why = cuda_unavailable_reason();
+    if (!why.empty()) throw DeviceError(why);
+  }
+}
+
+template <class Real>
+std::unique_ptr<Simulation> make_in_precision(const Model& model, const BoxSpec& box,
+                                              const ParticleSet& p, double dt,
+                                              const SimulationOptions& options,
+                                              const SimulationState* resume) {
+  return std::make_unique<SimulationImpl<Real>>(model, box, p, dt, options, decomposes(options),
+                                                resume);
+}
+
+std::unique_ptr<Simulation> make_for_model(const Model& model, const BoxSpec& box,
+                                           const ParticleSet& p, double dt,
+                                           const SimulationOptions& options,
+                                           const SimulationState* resume) {
+  if (model.precision == Precision::Single)
+    return make_in_precision<float>(model, box, p, dt, options, resume);
+  return make_in_precision<double>(model, box, p, dt, options, resume);
+}
 
 }  // namespace
 
@@ -649,15 +658,8 @@ std::unique_ptr<Simulation> make_simulation(const Model& model, const BoxSpec& b
                                             const SimulationOptions& options) {
   validate_inputs(model, box, particles, dt);
   if (options.interrupt_check) options.interrupt_check();
-  if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
-    return make_distributed_simulation(model, box, particles, dt, options);
-  if (options.backend == BackendKind::CUDA) {
-    const std::string why = cuda_unavailable_reason();
-    if (!why.empty()) throw DeviceError(why);
-  }
-  if (model.precision == Precision::Single)
-    return std::make_unique<SimulationImpl<float>>(model, box, particles, dt, options);
-  return std::make_unique<SimulationImpl<double>>(model, box, particles, dt, options);
+  if (!decomposes(options)) require_backend(options);
+  return make_for_model(model, box, particles, dt, options, nullptr);
 }
 
 std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec& box,
@@ -667,17 +669,12 @@ std::unique_ptr<Simulation> resume_simulation(const Model& model, const BoxSpec&
   state.check_fits(model);  // on the whole state: every rank of a decomposed resume agrees
   validate_inputs(model, box, state.particles(), state.dt, state.step);
   if (options.interrupt_check) options.interrupt_check();
-  if (options.comm && (options.comm->size() > 1 || options.decomposition.force))
-    return resume_distributed_simulation(model, box, state, options);
-  if (options.backend == BackendKind::CUDA) {
-    const std::string why = cuda_unavailable_reason();
-    if (!why.empty()) throw DeviceError(why);
+  if (decomposes(options)) {
+    const SimulationState ordered = state.in_original_order();
+    return make_for_model(model, box, ordered.particles(), state.dt, options, &ordered);
   }
-  if (model.precision == Precision::Single)
-    return std::make_unique<SimulationImpl<float>>(model, box, state.particles(), state.dt, options,
-                                                   &state);
-  return std::make_unique<SimulationImpl<double>>(model, box, state.particles(), state.dt, options,
-                                                  &state);
+  require_backend(options);
+  return make_for_model(model, box, state.particles(), state.dt, options, &state);
 }
 
 #if !defined(MESOROCK_HAVE_CUDA)

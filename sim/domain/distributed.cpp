@@ -1,9 +1,9 @@
-// A decomposed Simulation: each rank owns the particles in its region and runs the ordinary engine
-// over them plus a layer of ghosts, with the exchanges of sim/domain/exchange.h between the phases
-// of every step (the engine calls this class's StepHooks). Observables are sums over each rank's
-// own particles, reduced over the ranks; particle outputs are gathered and returned in the
-// caller's original order (by id).
-#include "sim/domain/distributed.h"
+// A domain decomposition (sim/domain/domain.h): each rank owns the particles in its region and
+// runs the ordinary engine over them plus a layer of ghosts, with the exchanges of
+// sim/domain/exchange.h between the phases of every step (the engine calls this class's
+// StepHooks), and re-balances by RCB on the measured cost. The Simulation (sim/simulation.cpp)
+// reduces its observables over the ranks; gathered particles find their original order by id.
+#include "sim/domain/domain.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,9 +15,7 @@
 #include "sim/domain/communicator.h"
 #include "sim/domain/decomposition.h"
 #include "sim/engine_factory.h"
-#include "sim/host_reductions.h"
 #include "sim/state_snapshot.h"
-#include "sim/terms.h"
 
 namespace mesorock::sim {
 
@@ -28,13 +26,20 @@ namespace {
 constexpr double kFrozenCost = 1.0, kMobileCost = 4.5;
 
 template <class Real>
-class DistributedSimulation final : public Simulation, public StepHooks<Real> {
+class DecomposedDomain final : public Domain<Real>, public StepHooks<Real> {
  public:
-  // resume: a saved state in the original order (SimulationState::in_original_order) whose
-  // particles are `p`; each rank takes its own particles' rows of it (else the run starts from p).
-  DistributedSimulation(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
-                        const SimulationOptions& opt, const SimulationState* resume = nullptr)
-      : model_(model), box_(box), dt_(dt), comm_(opt.comm), opt_(opt) {
+  DecomposedDomain(RankSolver<Real>& solver, const SimulationOptions& opt)
+      : solver_(solver), comm_(opt.comm), opt_(opt) {
+    if (!comm_) throw ConfigError("a decomposed run needs a communicator");
+  }
+
+  bool decomposed() const override { return true; }
+  Communicator& comm() const override { return *comm_; }
+  StepHooks<Real>* hooks() override { return this; }
+
+  void init_state(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
+                  const SimulationOptions& opt, const SimulationState* resume) override {
+    box_ = box;
     const DecompositionOptions& d = opt.decomposition;
     if (!(d.halo >= 1.0)) throw ConfigError("decomposition halo must be at least rc = 1");
     if ((d.axes & 7u) == 0) throw ConfigError("decomposition: no axis allowed for cuts");
@@ -42,57 +47,55 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       if (!id_index_.emplace(p.id[i], static_cast<std::int32_t>(i)).second)
         throw ConfigError("a decomposed run needs unique particle ids (id " +
                           std::to_string(p.id[i]) + " repeats)");
-    total_ = p.size();
     frozen_mask_ = model.frozen_mask();
-
-    // The first decomposition weighs the particles by their type alone (no neighbour counts
-    // exist yet): every rank holds the whole initial set, so each computes the same one.
-    std::vector<double> pos[3];
-    for (int a = 0; a < 3; ++a) pos[a].resize(p.size());
-    std::vector<double> weight(p.size());
-    for (size_t i = 0; i < p.size(); ++i) {
-      const double c[3] = {p.x[i], p.y[i], p.z[i]};
-      for (int a = 0; a < 3; ++a) pos[a][i] = inside_box(c[a], a);
-      weight[i] = ((frozen_mask_ >> p.type[i]) & 1u) ? kFrozenCost : kMobileCost;
-    }
-    decompose([&](const Region& g, int axis, int bins) {
-      return histogram(pos, weight, g, axis, bins);  // local data is global here: no reduction
-    });
-    ParticleSet mine;
     std::vector<size_t> rows;
-    const Region& own = decomp_.region(comm_->rank());
-    for (size_t i = 0; i < p.size(); ++i) {
-      const double c[3] = {pos[0][i], pos[1][i], pos[2][i]};
-      if (!own.contains(c)) continue;
-      mine.add(p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.type[i], p.id[i]);
-      rows.push_back(i);
-    }
-    init_host_state(state_, model, box, mine, dt, opt);
-    for (RigidSlabBody& b : state_.slab_bodies)
+    const ParticleSet mine = first_share(p, rows);
+    HostState<Real>& s = solver_.host;
+    init_host_state(s, model, box, mine, dt, opt);
+    for (RigidSlabBody& b : s.slab_bodies)
       b.mass = static_cast<double>(std::count(p.type.begin(), p.type.end(), b.type));
     if (resume) {
       // This rank's rows, with their velocities, v~, forces, densities and phi of the saved step.
-      load_state(state_, resume->select(rows));
+      // No ghosts yet: the first step's exchange brings them, before its force pass.
+      load_state(s, resume->select(rows));
     }
-    state_.has_ghosts = true;
+    s.has_ghosts = true;
     set_local_geometry();
-    dispatch_terms(model, [&](auto terms) { pass_name_ = term_set_name<decltype(terms)>(); });
-    engine_ = make_engine<Real>(model, opt);
-    if (resume) {
-      // No ghosts yet: the first step's exchange brings them, before its force pass. The run's
-      // wall-correction count goes to rank 0 alone (wall_corrections() sums over the ranks).
-      engine_->restore(state_, comm_->rank() == 0 ? resume->wall_corrections : 0, this);
-    } else {
-      engine_->initialize(state_, this);
+  }
+
+  // The first cut weighed particles by type; the initial force pass has counted neighbours, so
+  // RCB cuts again on the measured cost before the first step (a flooding run on 4 ranks peaked
+  // at 1.11 in its first 1,000 steps on the type-weighted cut, 1.00-1.05 after). A resumed run
+  // counts without ghosts (particles near a cut see fewer neighbours) until its next re-balance.
+  void started() override {
+    if (opt_.decomposition.method == DecompositionMethod::RCB) rebalance();
+  }
+
+  // A re-balance at the end of the last steps chose new regions; the engine takes them here,
+  // just before the step whose exchange moves the particles, so observables read in between
+  // (stress, bins, regions) see storage and cell list of one geometry (seen: a segfault in the
+  // virial when the new cell grid met the old storage).
+  void before_steps() override {
+    if (geometry_pending_) {
+      set_local_geometry();
+      geometry_pending_ = false;
     }
-    engine_->set_watchdog(opt.watchdog);
-    host_current_ = false;
-    // The first cut weighed particles by type; the initial force pass has counted neighbours, so
-    // RCB cuts again on the measured cost before the first step (a flooding run on 4 ranks
-    // peaked at 1.11 in its first 1,000 steps on the type-weighted cut, 1.00-1.05 after). A
-    // resumed run counts without ghosts (particles near a cut see fewer neighbours) until its
-    // next re-balance.
-    if (opt.decomposition.method == DecompositionMethod::RCB) rebalance();
+  }
+  std::uint64_t steps_in_one_go(std::uint64_t steps) override {
+    const std::uint64_t every = opt_.decomposition.rebalance_every;
+    if (rcb() && every > 0) return std::min(steps, every - solver_.engine->step() % every);
+    return steps;
+  }
+  void after_steps() override {
+    const std::uint64_t every = opt_.decomposition.rebalance_every;
+    if (rcb() && every > 0 && solver_.engine->step() % every == 0) rebalance();
+  }
+
+  std::size_t original_index(std::int32_t, std::int64_t id) const override {
+    const auto it = id_index_.find(id);
+    if (it == id_index_.end())
+      throw NumericalError("particle id " + std::to_string(id) + " appeared from nowhere");
+    return static_cast<size_t>(it->second);
   }
 
   // ---- StepHooks: called by the engine inside every step, on every rank. ----
@@ -105,7 +108,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       const int q = owner_of(m.x);
       if (q < 0) {
         std::ostringstream s;
-        s << "step " << engine_->step() << ": particle " << m.id << " at (" << m.x[0] << ", "
+        s << "step " << solver_.engine->step() << ": particle " << m.id << " at (" << m.x[0] << ", "
           << m.x[1] << ", " << m.x[2] << ") left the box (no rank owns it)";
         throw NumericalError(s.str());
       }
@@ -163,181 +166,6 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     return value;
   }
 
-  // ---- Simulation ----
-  void run(std::uint64_t steps) override {
-    const std::uint64_t every = opt_.decomposition.rebalance_every;
-    const bool rcb = opt_.decomposition.method == DecompositionMethod::RCB;
-    while (steps > 0) {
-      // A re-balance at the end of the last chunk chose new regions; the engine takes them here,
-      // just before the step whose exchange moves the particles, so observables read in between
-      // (stress, bins, regions) see storage and cell list of one geometry (seen: a segfault in
-      // the virial when the new cell grid met the old storage).
-      if (geometry_pending_) {
-        set_local_geometry();
-        geometry_pending_ = false;
-      }
-      std::uint64_t n = steps;
-      if (rcb && every > 0) n = std::min(n, every - engine_->step() % every);
-      engine_->advance(n);
-      steps -= n;
-      host_current_ = false;
-      if (rcb && every > 0 && engine_->step() % every == 0) rebalance();
-      if (opt_.on_run) opt_.on_run(n, total_);
-    }
-  }
-  void set_dt(double dt) override {
-    if (!(dt > 0) || !std::isfinite(dt)) throw ConfigError("dt must be a positive number");
-    dt_ = dt;
-    engine_->set_dt(static_cast<Real>(dt));
-  }
-  double dt() const override { return dt_; }
-  std::uint64_t step() const override { return engine_->step(); }
-  size_t size() const override { return total_; }
-
-  ParticleSet particles() override {
-    struct Rec {
-      double x[3], v[3];
-      std::int32_t type;
-      std::int64_t id;
-    };
-    std::vector<Rec> mine;
-    for_owned([&](int i) {
-      mine.push_back({{double(state_.x[i]), double(state_.y[i]), double(state_.z[i])},
-                      {double(state_.vx[i]), double(state_.vy[i]), double(state_.vz[i])},
-                      state_.type[i],
-                      state_.id[i]});
-    });
-    const std::vector<Rec> all = comm_->allgather_records(mine);
-    ParticleSet p;
-    for (auto* a : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz}) a->resize(total_);
-    p.type.resize(total_);
-    p.id.resize(total_);
-    for (const Rec& r : all) {
-      const size_t k = index_of(r.id);
-      p.x[k] = r.x[0], p.y[k] = r.x[1], p.z[k] = r.x[2];
-      p.vx[k] = r.v[0], p.vy[k] = r.v[1], p.vz[k] = r.v[2];
-      p.type[k] = r.type;
-      p.id[k] = r.id;
-    }
-    return p;
-  }
-  std::vector<double> densities() override {
-    return gather_field([&](int i) { return double(state_.rho[i]); });
-  }
-  std::vector<double> boundary_volume_fractions() override {
-    if (!model_.wall_model.enabled) return {};
-    return gather_field([&](int i) { return double(state_.bvf[i]); });
-  }
-  std::array<std::vector<double>, 3> forces() override {
-    return {gather_field([&](int i) { return double(state_.fx[i]); }),
-            gather_field([&](int i) { return double(state_.fy[i]); }),
-            gather_field([&](int i) { return double(state_.fz[i]); })};
-  }
-  std::uint64_t wall_corrections() const override {
-    std::uint64_t c = engine_->wall_corrections();
-    comm_->sum(&c, 1);
-    return c;
-  }
-  std::vector<RigidSlabState> rigid_slabs() override {
-    sync();
-    std::vector<RigidSlabState> out;
-    std::vector<double> sums(state_.slab_bodies.size(), 0.0);
-    for (size_t k = 0; k < sums.size(); ++k) {
-      const RigidSlabBody& b = state_.slab_bodies[k];
-      const std::vector<Real>& pos = b.axis == 0 ? state_.x : (b.axis == 1 ? state_.y : state_.z);
-      for_owned([&](int i) {
-        if (state_.type[i] == b.type) sums[k] += pos[i];
-      });
-    }
-    if (!sums.empty()) comm_->sum(sums.data(), static_cast<int>(sums.size()));
-    for (size_t k = 0; k < sums.size(); ++k) {
-      const RigidSlabBody& b = state_.slab_bodies[k];
-      RigidSlabState r;
-      r.type = model_.types[static_cast<size_t>(b.type)].name;
-      r.axis = b.axis;
-      r.velocity = b.velocity;
-      r.force = b.force;
-      r.applied_force = b.applied_force;
-      r.mass = b.mass;
-      r.position = b.mass > 0 ? sums[k] / b.mass : 0;
-      out.push_back(r);
-    }
-    return out;
-  }
-  double kinetic_temperature() override {
-    sync();
-    const MobileSums m = mobile_sums(state_, [&](int i) { return state_.origin[i] >= 0; });
-    double s[2] = {m.v2, m.count};
-    comm_->sum(s, 2);
-    return s[1] > 0 ? s[0] / (3.0 * s[1]) : 0.0;
-  }
-  std::array<double, 3> momentum() override {
-    sync();
-    std::array<double, 3> p = mobile_sums(state_, [&](int i) { return state_.origin[i] >= 0; }).p;
-    comm_->sum(p.data(), 3);
-    return p;
-  }
-  SolidIntrusion solid_intrusion() override {
-    if (!state_.solid.enabled()) return {};
-    sync();
-    SolidIntrusion r = solid_intrusion_of(state_, [&](int i) { return state_.origin[i] >= 0; });
-    // The counts add up; the deepest particle travels from its rank (depth first, then id).
-    std::uint64_t inside = r.inside;
-    comm_->sum(&inside, 1);
-    double deepest[5] = {r.deepest_id >= 0 ? r.max_depth : -1.0, 0, 0, 0, 0};
-    double best = deepest[0];
-    comm_->max(&best, 1);
-    std::uint64_t id = r.deepest_id >= 0 && deepest[0] == best
-                           ? static_cast<std::uint64_t>(r.deepest_id)
-                           : ~std::uint64_t(0);
-    comm_->min(&id, 1);
-    if (id != ~std::uint64_t(0) && static_cast<std::int64_t>(id) == r.deepest_id) {
-      for (int a = 0; a < 3; ++a) deepest[1 + a] = r.deepest_position[static_cast<size_t>(a)];
-      deepest[4] = 1;
-    } else {
-      for (double& d : deepest) d = 0;
-    }
-    comm_->sum(deepest + 1, 4);
-    SolidIntrusion out;
-    out.available = true;
-    out.inside = inside;
-    if (id != ~std::uint64_t(0)) {
-      out.max_depth = best;
-      out.deepest_id = static_cast<std::int64_t>(id);
-      for (int a = 0; a < 3; ++a) out.deepest_position[static_cast<size_t>(a)] = deepest[1 + a];
-    }
-    return out;
-  }
-  StressSample stress() override { return stress_of(VirialRegion<Real>{}, box_.volume()); }
-  StressSample region_stress(const RegionSelection& r) override {
-    double volume = 1;
-    const VirialRegion<Real> region = virial_region_of<Real>(r, &volume);
-    return stress_of(region, volume);
-  }
-  std::vector<InjectionCounts> injections() override {
-    std::vector<InjectionCounts> c = engine_->injection_counts();
-    std::vector<std::uint64_t> injected(c.size());
-    for (size_t k = 0; k < c.size(); ++k) injected[k] = c[k].injected;
-    if (!injected.empty()) comm_->sum(injected.data(), static_cast<int>(injected.size()));
-    // Every rank sees the same events; a missed one is missed on all of them.
-    for (size_t k = 0; k < c.size(); ++k) c[k].injected = injected[k];
-    return c;
-  }
-  std::vector<double> bin_sums(const BinGrid& grid) override {
-    check_bin_grid(grid);
-    std::vector<double> sums;
-    engine_->bin_sums(grid, sums);
-    comm_->sum(sums.data(), static_cast<int>(sums.size()));
-    return sums;
-  }
-  const Model& model() const override { return model_; }
-  const BoxSpec& box() const override { return box_; }
-  std::string backend_name() const override { return engine_->name(); }
-  std::string pass_name() const override { return pass_name_; }
-  std::size_t device_bytes() const override { return engine_->device_bytes(); }
-  std::string profile_report() const override { return engine_->profile_report(); }
-  int rank() const override { return comm_->rank(); }
-  int ranks() const override { return comm_->size(); }
   // Each rank's cost under the current regions: each particle's measured cost added to the rank
   // whose region holds it (after a re-balance the storage still follows the old regions until
   // the next step's exchange).
@@ -347,8 +175,9 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     // Under the regions the next step will use (new ones right after a re-balance).
     const std::vector<LocalRegion<Real>> owners = geometry_pending_ ? owner_regions() : owners_;
     size_t k = 0;
-    for_owned([&](int i) {
-      Real x[3] = {state_.x[i], state_.y[i], state_.z[i]};
+    solver_.for_owned([&](int i) {
+      const HostState<Real>& s = solver_.host;
+      Real x[3] = {s.x[i], s.y[i], s.z[i]};
       region_.wrap(x);
       const int q = owner_in(owners, x);
       per_rank[static_cast<size_t>(q < 0 ? comm_->rank() : q)] += cost[k++];
@@ -356,115 +185,38 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     comm_->sum(per_rank.data(), static_cast<int>(per_rank.size()));
     return per_rank;
   }
-  // Every rank's own particles gathered in the original order (origin = 0, 1, ...), on every
-  // rank: a checkpoint of it resumes on any number of ranks, one included. It continues the same
-  // physics, not bit for bit: storage order (so the order of force sums) and the regions of the
-  // re-balances are not kept.
-  SimulationState state() override {
-    // One record per owned particle; arrays the model does not use (v~ without a thermostat,
-    // phi without the wall model) travel as zeros and are left out of the state.
-    struct Rec {
-      double v[14];  // x y z, v, v~, f, rho, phi
-      std::int64_t id;
-      std::int32_t type;
-    };
-    const std::vector<Real>* in[14] = {
-        &state_.x,   &state_.y,   &state_.z,  &state_.vx, &state_.vy, &state_.vz,  &state_.vex,
-        &state_.vey, &state_.vez, &state_.fx, &state_.fy, &state_.fz, &state_.rho, &state_.bvf};
-    std::vector<Rec> mine;
-    for_owned([&](int i) {
-      Rec r{};
-      for (int a = 0; a < 14; ++a)
-        if (!in[a]->empty()) r.v[a] = double((*in[a])[static_cast<size_t>(i)]);
-      r.id = state_.id[i];
-      r.type = state_.type[i];
-      mine.push_back(r);
-    });
-    SimulationState out;
-    out.precision = std::is_same_v<Real, float> ? Precision::Single : Precision::Double;
-    out.step = engine_->step();
-    out.dt = dt_;
-    std::vector<double>* to[14] = {&out.x,  &out.y,   &out.z,   &out.vx,  &out.vy,
-                                   &out.vz, &out.vex, &out.vey, &out.vez, &out.fx,
-                                   &out.fy, &out.fz,  &out.rho, &out.bvf};
-    const bool ve = model_.thermostat, walls = model_.wall_model.enabled;
-    for (int a = 0; a < 14; ++a) {
-      const bool present = a == 13 ? walls : (a >= 6 && a <= 8 ? ve : true);
-      if (present) to[a]->assign(total_, 0.0);
-    }
-    out.type.assign(total_, 0);
-    out.id.assign(total_, 0);
-    for (const Rec& r : comm_->allgather_records(mine)) {
-      const size_t k = index_of(r.id);
-      for (int a = 0; a < 14; ++a)
-        if (!to[a]->empty()) (*to[a])[k] = r.v[a];
-      out.type[k] = r.type;
-      out.id[k] = r.id;
-    }
-    out.origin.resize(total_);
-    for (size_t k = 0; k < total_; ++k) out.origin[k] = static_cast<std::int32_t>(k);
-    out.slabs = state_.slab_bodies;  // the same on every rank (their forces are summed)
-    out.wall_corrections = wall_corrections();
-    return out;
-  }
-  std::string decomposition_report() const override {
+  std::string report() const override {
     return std::string(to_string(opt_.decomposition.method)) + " over " +
            std::to_string(comm_->size()) + " ranks: " + decomp_.describe();
   }
 
  private:
-  void sync() {
-    if (!host_current_) {
-      engine_->download(state_);
-      host_current_ = true;
-    }
-  }
-  template <class F>
-  void for_owned(F&& f) {
-    sync();
-    for (int i = 0; i < state_.size(); ++i)
-      if (state_.origin[i] >= 0) f(i);
-  }
-  size_t index_of(std::int64_t id) const {
-    const auto it = id_index_.find(id);
-    if (it == id_index_.end())
-      throw NumericalError("particle id " + std::to_string(id) + " appeared from nowhere");
-    return static_cast<size_t>(it->second);
-  }
-  template <class F>
-  std::vector<double> gather_field(F&& value) {
-    struct Rec {
-      std::int64_t id;
-      double v;
-    };
-    std::vector<Rec> mine;
-    for_owned([&](int i) { mine.push_back({state_.id[i], value(i)}); });
-    std::vector<double> out(total_, 0.0);
-    for (const Rec& r : comm_->allgather_records(mine)) out[index_of(r.id)] = r.v;
-    return out;
-  }
+  bool rcb() const { return opt_.decomposition.method == DecompositionMethod::RCB; }
 
-  StressSample stress_of(const VirialRegion<Real>& region, double volume) {
-    sync();
-    StressSample out;
-    out.volume = volume;
-    double sums[24] = {};
-    const std::array<double, 6> kinetic = kinetic_stress_sums(state_, region);  // no ghosts
-    const VirialSums w = engine_->virial(region);
-    for (int c = 0; c < 6; ++c) {
-      sums[c] = kinetic[c];
-      sums[6 + c] = w.conservative[c];
-      sums[12 + c] = w.dissipative[c];
-      sums[18 + c] = w.random[c];
+  // The first decomposition weighs the particles by their type alone (no neighbour counts exist
+  // yet): every rank holds the whole initial set, so each computes the same one. Returns this
+  // rank's particles and their rows of p.
+  ParticleSet first_share(const ParticleSet& p, std::vector<size_t>& rows) {
+    std::vector<double> pos[3];
+    for (int a = 0; a < 3; ++a) pos[a].resize(p.size());
+    std::vector<double> weight(p.size());
+    for (size_t i = 0; i < p.size(); ++i) {
+      const double c[3] = {p.x[i], p.y[i], p.z[i]};
+      for (int a = 0; a < 3; ++a) pos[a][i] = inside_box(c[a], a);
+      weight[i] = ((frozen_mask_ >> p.type[i]) & 1u) ? kFrozenCost : kMobileCost;
     }
-    comm_->sum(sums, 24);
-    for (int c = 0; c < 6; ++c) {
-      out.kinetic[c] = sums[c] / volume;
-      out.conservative[c] = sums[6 + c] / volume;
-      out.dissipative[c] = sums[12 + c] / volume;
-      out.random[c] = sums[18 + c] / volume;
+    decompose([&](const Region& g, int axis, int bins) {
+      return histogram(pos, weight, g, axis, bins);  // local data is global here: no reduction
+    });
+    ParticleSet mine;
+    const Region& own = decomp_.region(comm_->rank());
+    for (size_t i = 0; i < p.size(); ++i) {
+      const double c[3] = {pos[0][i], pos[1][i], pos[2][i]};
+      if (!own.contains(c)) continue;
+      mine.add(p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.type[i], p.id[i]);
+      rows.push_back(i);
     }
-    return out;
+    return mine;
   }
 
   // A position mapped into the box the way the solver does (the upper face of a periodic axis
@@ -502,11 +254,11 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   // grid only at the start of the next run, so the list always matches its grid here).
   std::vector<double> particle_costs() {
     std::vector<int> counts;
-    engine_->neighbour_counts(counts);
-    sync();
+    solver_.engine->neighbour_counts(counts);
+    const HostState<Real>& state = solver_.synced();
     std::vector<double> cost;
-    for_owned([&](int i) {
-      const double per = ((frozen_mask_ >> state_.type[i]) & 1u) ? kFrozenCost : kMobileCost;
+    solver_.for_owned([&](int i) {
+      const double per = ((frozen_mask_ >> state.type[i]) & 1u) ? kFrozenCost : kMobileCost;
       cost.push_back(per * std::max(1, counts[static_cast<size_t>(i)]));
     });
     return cost;
@@ -516,10 +268,10 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   void rebalance() {
     const std::vector<double> cost = particle_costs();
     std::vector<double> pos[3];
-    for_owned([&](int i) {
-      pos[0].push_back(state_.x[i]);
-      pos[1].push_back(state_.y[i]);
-      pos[2].push_back(state_.z[i]);
+    solver_.for_owned([&](int i) {
+      pos[0].push_back(solver_.host.x[i]);
+      pos[1].push_back(solver_.host.y[i]);
+      pos[2].push_back(solver_.host.z[i]);
     });
     decompose([&](const Region& g, int axis, int bins) {
       std::vector<double> h = histogram(pos, cost, g, axis, bins);
@@ -534,7 +286,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
   void set_local_geometry() {
     const Region& g = decomp_.region(comm_->rank());
     const double h = opt_.decomposition.halo;
-    Box<Real>& b = state_.box;
+    Box<Real>& b = solver_.host.box;
     for (int a = 0; a < 3; ++a) {
       const size_t s = static_cast<size_t>(a);
       double lo = box_.lo[s], hi = box_.hi[s];
@@ -555,7 +307,7 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
       region_.global_length[a] = static_cast<Real>(box_.length(a));
       region_.periodic[a] = box_.periodic[s];
     }
-    state_.grid = CellGrid<Real>::make(b, Real(1), opt_.cells_per_cutoff);
+    solver_.host.grid = CellGrid<Real>::make(b, Real(1), opt_.cells_per_cutoff);
     owners_ = owner_regions();
     halo_boxes_.clear();
     halo_rank_.clear();
@@ -609,19 +361,13 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
     return out;
   }
 
-  Model model_;
-  BoxSpec box_;
-  double dt_;
+  RankSolver<Real>& solver_;
   std::shared_ptr<Communicator> comm_;
   SimulationOptions opt_;
+  BoxSpec box_;
   Decomposition decomp_;
-  HostState<Real> state_;
-  std::unique_ptr<Engine<Real>> engine_;
-  std::string pass_name_;
-  bool host_current_ = false;
   bool geometry_pending_ = false;  // new regions chosen; the engine takes them before the next step
   std::unordered_map<std::int64_t, std::int32_t> id_index_;
-  size_t total_ = 0;
   std::uint32_t frozen_mask_ = 0;  // for the load-balance cost
   LocalRegion<Real> region_;
   std::vector<LocalRegion<Real>> owners_;
@@ -631,26 +377,14 @@ class DistributedSimulation final : public Simulation, public StepHooks<Real> {
 
 }  // namespace
 
-std::unique_ptr<Simulation> make_distributed_simulation(const Model& model, const BoxSpec& box,
-                                                        const ParticleSet& particles, double dt,
-                                                        const SimulationOptions& options) {
-  if (!options.comm) throw ConfigError("a decomposed run needs a communicator");
-  if (model.precision == Precision::Single)
-    return std::make_unique<DistributedSimulation<float>>(model, box, particles, dt, options);
-  return std::make_unique<DistributedSimulation<double>>(model, box, particles, dt, options);
+template <class Real>
+std::unique_ptr<Domain<Real>> make_decomposed_domain(RankSolver<Real>& solver,
+                                                     const SimulationOptions& options) {
+  return std::make_unique<DecomposedDomain<Real>>(solver, options);
 }
-
-std::unique_ptr<Simulation> resume_distributed_simulation(const Model& model, const BoxSpec& box,
-                                                          const SimulationState& state,
-                                                          const SimulationOptions& options) {
-  if (!options.comm) throw ConfigError("a decomposed run needs a communicator");
-  const SimulationState ordered = state.in_original_order();
-  const ParticleSet p = ordered.particles();
-  if (model.precision == Precision::Single)
-    return std::make_unique<DistributedSimulation<float>>(model, box, p, state.dt, options,
-                                                          &ordered);
-  return std::make_unique<DistributedSimulation<double>>(model, box, p, state.dt, options,
-                                                         &ordered);
-}
+template std::unique_ptr<Domain<float>> make_decomposed_domain<float>(RankSolver<float>&,
+                                                                      const SimulationOptions&);
+template std::unique_ptr<Domain<double>> make_decomposed_domain<double>(RankSolver<double>&,
+                                                                        const SimulationOptions&);
 
 }  // namespace mesorock::sim
