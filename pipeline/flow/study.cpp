@@ -33,10 +33,10 @@
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "pipeline/exit_codes.h"
+#include "pipeline/flow/reverse_poiseuille.h"
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
-#include "pipeline/flow/viscosity_calibration.h"
 #include "pipeline/flow/wall_liquid.h"
 #include "sim/domain/communicator.h"
 #include "sim/eos.h"
@@ -296,9 +296,7 @@ Prepared prepare_viscosity(const Context& c) {
   p.s = make_bulk_mdpd(kA, kB, kRd, kGamma, kRho, L, c.o.seed + 12, sim::DensityKernelKind::Warren);
   // Peak shear rate (at the mid-plane and the periodic face) rho g Lz / (4 eta).
   p.g = c.z.visc_rate * 4 * kBulkViscosity / (kRho * L[2]);
-  p.s.model.types[0].body_force = {p.g, 0, 0};
-  p.s.model.body_force_profile = sim::BodyForceProfile::Reversed;
-  p.s.model.body_force_axis = 2;
+  drive_reverse_poiseuille(p.s.model, p.g);
   const double h = 0.5 * L[2], a = kRho * p.g / (2 * kBulkViscosity);
   for (std::size_t i = 0; i < p.s.particles.size(); ++i) {
     const double z = p.s.particles.z[i];
@@ -397,9 +395,9 @@ struct ViscosityResult {
   double mps = 0;
 };
 
-// eta from the reverse Poiseuille profile: a parabola per half, eta = -s rho g / (2 c2), averaged
-// with weights 1/err^2; the error from the scatter of the same estimate over blocks of the run
-// (as the `viscosity` case does).
+// eta from the reverse Poiseuille profile (reverse_poiseuille.h) in 0.5 rc bins (the nearest
+// count), sampled every 0.1 time units; a kinetic energy that is not finite or too large stops
+// the run as unstable.
 ViscosityResult measure_viscosity_at(const Context& c, const Prepared& p, double dt,
                                      sim::Precision precision) {
   ViscosityResult r;
@@ -407,23 +405,18 @@ ViscosityResult measure_viscosity_at(const Context& c, const Prepared& p, double
   try {
     RunStart st = start_run(c, p, dt, precision, c.o.seed + 22, c.z.visc_eq_tau, what);
     r.mps = st.mps;
-    const double Lz = p.s.box.length(2);
-    const int bins = static_cast<int>(std::lround(Lz * 2));  // 0.5 rc
-    const sim::BinGrid grid = sim::BinGrid::profile(2, bins, p.s.box.lo, p.s.box.hi);
-    sim::BinnedAverage profile(grid);
-    const std::uint64_t every = sample_every(dt);
+    ReversePoiseuilleSampling sampling;
+    sampling.bins = static_cast<int>(std::lround(p.s.box.length(2) * 2));
+    sampling.every = sample_every(dt);
     const std::uint64_t total =
-        std::max<std::uint64_t>(4, steps_for(c.z.visc_sample_tau, dt) / every);
+        std::max<std::uint64_t>(4, steps_for(c.z.visc_sample_tau, dt) / sampling.every);
     // Blocks of at least 2 tau (the profile relaxes in about (Lz/2)^2 / (pi^2 nu)), at most 20.
-    const std::uint64_t nblocks = std::min<std::uint64_t>(
+    sampling.blocks = std::min<std::uint64_t>(
         total, static_cast<std::uint64_t>(std::clamp(c.z.visc_sample_tau / 2, 2.0, 20.0)));
-    const std::uint64_t per_block = total / nblocks;
-    std::vector<std::vector<double>> block_sums(nblocks);
-    for (std::uint64_t k = 0; k < per_block * nblocks; ++k) {
-      st.sim->run(every);
-      const auto sums = st.sim->bin_sums(grid);
+    sampling.samples_per_block = total / sampling.blocks;
+    auto check = [&](const std::vector<double>& sums) {
       double n = 0, vv = 0;
-      for (int b = 0; b < bins; ++b) {
+      for (int b = 0; b < sampling.bins; ++b) {
         const double* s = &sums[static_cast<size_t>(b) * sim::kBinFields];
         n += s[sim::kBinCount];
         vv += s[sim::kBinVxx] + s[sim::kBinVyy] + s[sim::kBinVzz];
@@ -431,38 +424,13 @@ ViscosityResult measure_viscosity_at(const Context& c, const Prepared& p, double
       if (!(std::isfinite(vv) && vv / (3 * n) < kMaxTemperature))
         throw Unstable(what + ": kinetic energy is not finite or too large at step " +
                        std::to_string(st.sim->step()));
-      profile.add(sums);
-      auto& blk = block_sums[static_cast<size_t>(k / per_block)];
-      if (blk.empty()) blk.assign(sums.size(), 0.0);
-      for (size_t q = 0; q < sums.size(); ++q) blk[q] += sums[q];
-    }
-    const double width = Lz / bins;
-    auto eta_of = [&](const std::vector<double>& u, const std::vector<double>& err,
-                      double* worst_chi2) {
-      return reverse_poiseuille_eta(u, err, width, p.fluid_density, p.g, worst_chi2);
     };
-    const auto u = profile.velocity(0);
-    std::vector<double> ones(static_cast<size_t>(bins), 1.0);
-    r.chi2 = 0;
-    // With fewer than two complete blocks the profile has no error bars: unit weights then.
-    const bool have_errors = profile.blocks() >= 2;
-    r.eta = eta_of(u.mean, have_errors ? u.error : ones, have_errors ? &r.chi2 : nullptr);
-    if (!have_errors) r.chi2 = NAN;
-    std::vector<double> etas;
-    for (const auto& blk : block_sums) {
-      std::vector<double> ub(static_cast<size_t>(bins));
-      for (int b = 0; b < bins; ++b) {
-        const double n = blk[static_cast<size_t>(b) * sim::kBinFields + sim::kBinCount];
-        ub[static_cast<size_t>(b)] =
-            n > 0 ? blk[static_cast<size_t>(b) * sim::kBinFields + sim::kBinVx] / n : 0.0;
-      }
-      etas.push_back(eta_of(ub, ones, nullptr));
-    }
-    r.eta_error = block_average(etas, 0).error;
-    const auto T = profile.temperature();
-    double tsum = 0;
-    for (double v : T.mean) tsum += v;
-    r.temperature = tsum / static_cast<double>(T.mean.size());
+    const ReversePoiseuille m =
+        sample_reverse_poiseuille(*st.sim, p.s.box, sampling, p.fluid_density, p.g, check);
+    r.eta = m.eta;
+    r.eta_error = m.eta_error;
+    r.chi2 = m.chi2_per_dof;
+    r.temperature = m.temperature;
     if (!std::isfinite(r.eta)) throw Unstable(what + ": viscosity is not finite");
   } catch (const std::exception& e) {
     if (!is_instability(e)) throw;
