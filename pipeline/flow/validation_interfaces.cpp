@@ -7,10 +7,10 @@
 #include <sstream>
 
 #include "mesorock/errors.h"
+#include "pipeline/flow/reverse_poiseuille.h"
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
-#include "pipeline/flow/viscosity_calibration.h"
 #include "sim/init.h"
 #include "sim/observables.h"
 

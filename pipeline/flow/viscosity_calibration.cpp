@@ -11,86 +11,12 @@
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "pipeline/flow/progress.h"
-#include "pipeline/flow/statistics.h"
-#include "sim/observables.h"
+#include "pipeline/flow/reverse_poiseuille.h"
+#include "pipeline/flow/systems.h"
 
 namespace mesorock::pipeline {
 
 namespace fs = std::filesystem;
-
-double reverse_poiseuille_eta(const std::vector<double>& u, const std::vector<double>& err,
-                              double width, double rho, double g, double* worst_chi2) {
-  const int bins = static_cast<int>(u.size());
-  double inv_var = 0, weighted = 0;
-  for (int half = 0; half < 2; ++half) {
-    std::vector<double> z, uu, ee;
-    for (int b = half * bins / 2; b < (half + 1) * bins / 2; ++b) {
-      z.push_back((b + 0.5) * width);
-      uu.push_back(u[static_cast<size_t>(b)]);
-      ee.push_back(std::max(err[static_cast<size_t>(b)], 1e-12));
-    }
-    double zc = 0;
-    for (double v : z) zc += v;
-    const ParabolaFit f = fit_parabola(z, uu, ee, zc / static_cast<double>(z.size()));
-    const double sign = half == 0 ? 1.0 : -1.0;
-    const double eta = -sign * rho * g / (2 * f.c2);
-    const double e = std::abs(eta) * f.c2_error / std::abs(f.c2);
-    inv_var += 1 / (e * e);
-    weighted += eta / (e * e);
-    if (worst_chi2) *worst_chi2 = std::max(*worst_chi2, f.chi2_per_dof);
-  }
-  return weighted / inv_var;
-}
-
-ReversePoiseuille measure_reverse_poiseuille(BuiltSystem s, double g, double rho,
-                                             std::uint64_t equilibrate, std::uint64_t sample,
-                                             int blocks, const sim::SimulationOptions& options) {
-  const double Lz = s.box.length(2);
-  s.model.types[0].body_force = {g, 0, 0};
-  s.model.body_force_profile = sim::BodyForceProfile::Reversed;
-  s.model.body_force_axis = 2;
-  auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, options);
-  sim->run(equilibrate);
-  const int bins = static_cast<int>(Lz * 2);  // 0.5 rc bins
-  const sim::BinGrid grid = sim::BinGrid::profile(2, bins, s.box.lo, s.box.hi);
-  sim::BinnedAverage profile(grid);
-  const std::uint64_t every = 10;
-  const std::uint64_t samples = sample / every, per_block = samples / blocks;
-  std::vector<std::vector<double>> block_sums(static_cast<size_t>(blocks));
-  for (std::uint64_t k = 0; k < per_block * blocks; ++k) {
-    sim->run(every);
-    const auto sums = sim->bin_sums(grid);
-    profile.add(sums);
-    auto& blk = block_sums[static_cast<size_t>(k / per_block)];
-    if (blk.empty()) blk.assign(sums.size(), 0.0);
-    for (size_t q = 0; q < sums.size(); ++q) blk[q] += sums[q];
-  }
-  const double width = Lz / bins;
-  auto eta_of = [&](const std::vector<double>& u, const std::vector<double>& err,
-                    double* worst_chi2) {
-    return reverse_poiseuille_eta(u, err, width, rho, g, worst_chi2);
-  };
-  const auto u = profile.velocity(0);
-  const auto T = profile.temperature();
-  ReversePoiseuille r;
-  double tsum = 0;
-  for (double v : T.mean) tsum += v;
-  r.temperature = tsum / static_cast<double>(T.mean.size());
-  for (double v : u.mean) r.u_max = std::max(r.u_max, std::abs(v));
-  r.eta = eta_of(u.mean, u.error, &r.chi2_per_dof);
-  std::vector<double> etas;
-  for (const auto& blk : block_sums) {
-    std::vector<double> ub(static_cast<size_t>(bins)), ones(static_cast<size_t>(bins), 1.0);
-    for (int b = 0; b < bins; ++b) {
-      const double n = blk[static_cast<size_t>(b) * sim::kBinFields + sim::kBinCount];
-      ub[static_cast<size_t>(b)] =
-          n > 0 ? blk[static_cast<size_t>(b) * sim::kBinFields + sim::kBinVx] / n : 0.0;
-    }
-    etas.push_back(eta_of(ub, ones, nullptr));
-  }
-  r.eta_error = block_average(etas, 0).error;  // plain standard error of the block values
-  return r;
-}
 
 const char* to_string(CalibrationSize s) {
   switch (s) {

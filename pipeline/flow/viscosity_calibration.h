@@ -1,43 +1,18 @@
 #pragma once
-// Shear viscosity of a one-type fluid by reverse Poiseuille flow (Backer et al. 2005), shared by
-// the `viscosity` validation case and the viscosity calibration of `rockflow sweep`, which caches
-// its result in a file keyed by the fluid's parameters and reuses it.
+// The viscosity calibration of `rockflow sweep`: the shear viscosity of a one-type fluid by
+// reverse Poiseuille flow (reverse_poiseuille.h), cached in a file keyed by the fluid's parameters
+// and reused.
 #include <cstdint>
 #include <filesystem>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
-#include "pipeline/flow/systems.h"
 #include "sim/simulation.h"
 
 namespace mesorock::pipeline {
 
 class ProgressMeter;
-
-struct ReversePoiseuille {
-  double eta = 0, eta_error = 0;
-  double chi2_per_dof = 0;  // worse of the two halves' parabola fits
-  double temperature = 0;   // mean bin temperature
-  double u_max = 0;         // largest |mean velocity| of a bin
-};
-
-// A body force +g x for z below the box's mid-plane and -g x above drives two opposite parabolic
-// flows in the periodic box of `s` (one type, type 0). In each half the steady Stokes equation
-// eta u'' = -rho g s gives u = c0 + c1 z + c2 z^2, eta = -s rho g / (2 c2). After `equilibrate`
-// steps the velocity profile is sampled every 10 steps in 0.5 rc bins for `sample` steps; eta
-// comes from the whole run's profile (the halves' fits weighted by their errors), its error from
-// the scatter of eta over `blocks` consecutive blocks, each fitted on its own (the bins of one
-// profile are correlated, so a fit that treats them as independent underestimates the error).
-// eta from one reverse-Poiseuille velocity profile u (bins of `width` along the box, +g below the
-// mid-plane, -g above): each half's parabola fit, the two averaged with weights 1/err^2. The worst
-// half's chi^2 per dof goes to *worst_chi2 when given.
-double reverse_poiseuille_eta(const std::vector<double>& u, const std::vector<double>& err,
-                              double width, double rho, double g, double* worst_chi2);
-
-ReversePoiseuille measure_reverse_poiseuille(BuiltSystem s, double g, double rho,
-                                             std::uint64_t equilibrate, std::uint64_t sample,
-                                             int blocks, const sim::SimulationOptions& options);
 
 // The fluid a calibration runs: one type with these pair parameters at this number density.
 struct FluidSpec {
