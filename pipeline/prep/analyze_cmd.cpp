@@ -2,6 +2,7 @@
 // percolation, local thickness, porosity profiles): DIR/analysis.json and PNG plots.
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "mesorock/errors.h"
@@ -66,34 +67,37 @@ nlohmann::json cluster_record(const voxel::PercolationSummary& sum, double count
   return j;
 }
 
-int run_analyze(const AnalyzeArgs& a) {
+// What every analyze step reads: the options, the labels and their measured statistics, and the
+// progress and record they report to.
+struct AnalyzeContext {
+  const AnalyzeArgs& args;
+  int profile_axis;         // of the plotted profile
+  const std::string& name;  // the input, for messages
+  const voxel::Volume& labels;
+  const voxel::PoreStatistics& stats;
+  Progress& progress;
+  nlohmann::json& record;
+  double counted() const { return double(stats.counts.counted()); }
+  double voxel_volume() const {
+    const voxel::Spacing& s = labels.spacing();
+    return s.dz * s.dy * s.dx;
+  }
+};
+
+std::vector<int> connectivities_of(const std::string& option) {
   std::vector<int> connectivities;
-  if (a.connectivity == "6" || a.connectivity == "both") connectivities.push_back(6);
-  if (a.connectivity == "26" || a.connectivity == "both") connectivities.push_back(26);
-  const int profile_axis = voxel::parse_axis(a.profile_axis);
-  check_output_folder(a.out);
+  if (option == "6" || option == "both") connectivities.push_back(6);
+  if (option == "26" || option == "both") connectivities.push_back(26);
+  return connectivities;
+}
 
-  Progress progress(a.quiet);
-  nlohmann::json record = provenance("analyze");
-  nlohmann::json input;
-  voxel::Volume labels = load_labels(a.input, progress, &input);
-  record["input"] = input;
-  const std::string& name = input["path"].get_ref<const std::string&>();
-  const voxel::Shape shape = labels.shape();
-  const voxel::Spacing spacing = labels.spacing();
-  const std::int64_t n = labels.voxels();
-  const double voxel_volume = spacing.dz * spacing.dy * spacing.dx;
-
-  const voxel::PoreStatistics stats = progress.stage("porosity, interfaces, profiles", n, [&] {
-    return about_file(name, [&] { return voxel::measure_pores(labels); });
-  });
-  const double counted = double(stats.counts.counted());
-  const double porosity = stats.counts.porosity();
-  progress.note("porosity " + fixed(porosity) + " (" + std::to_string(stats.pore_voxels()) +
-                " pore of " + std::to_string(stats.counts.counted()) + " counted voxels)");
-  const std::string warning = voxel::porosity_warning(stats.counts);
-  if (!warning.empty()) progress.warn(name + ": " + warning);
-
+// The parameters, the definitions of every quantity, and the block's voxel counts: the record's
+// description of what was measured, apart from the measurements themselves.
+void record_block(const AnalyzeContext& c, const std::vector<int>& connectivities) {
+  const AnalyzeArgs& a = c.args;
+  const voxel::Shape shape = c.labels.shape();
+  const voxel::Spacing spacing = c.labels.spacing();
+  nlohmann::json& record = c.record;
   record["parameters"] = {{"connectivity", connectivities},
                           {"largest", a.largest},
                           {"profile_axis", a.profile_axis},
@@ -120,6 +124,7 @@ int run_analyze(const AnalyzeArgs& a) {
   record["shape_zyx"] = {shape.nz, shape.ny, shape.nx};
   record["spacing_zyx"] = {spacing.dz, spacing.dy, spacing.dx};
   record["unit"] = spacing.unit;
+  const voxel::PoreStatistics& stats = c.stats;
   nlohmann::json phases = nlohmann::json::object();
   for (int p = 0; p < voxel::kPhaseCount; ++p) {
     phases[voxel::phase_name(static_cast<voxel::Phase>(p))] =
@@ -127,142 +132,188 @@ int run_analyze(const AnalyzeArgs& a) {
   }
   record["voxels"] = {
       {"counted", stats.counts.counted()}, {"pore", stats.pore_voxels()}, {"by_phase", phases}};
-  record["porosity"] = porosity;
-  record["pore_volume"] = double(stats.pore_voxels()) * voxel_volume;
-  record["bulk_volume"] = counted * voxel_volume;
+  record["porosity"] = stats.counts.porosity();
+  record["pore_volume"] = double(stats.pore_voxels()) * c.voxel_volume();
+  record["bulk_volume"] = c.counted() * c.voxel_volume();
+}
 
-  // Surface.
-  {
-    nlohmann::json s;
-    std::array<double, 3> faces{};
-    for (std::size_t ax = 0; ax < 3; ++ax) faces[ax] = double(stats.faces_normal_to(int(ax)));
-    s["faces"] = per_axis(faces);
-    s["interface_area"] = stats.interface_area(spacing);
-    s["specific_surface_area"] = stats.specific_surface_area(spacing);
-    s["specific_surface_area_unit"] = "1/" + spacing.unit;
-    s["area_per_pore_volume"] =
-        stats.pore_voxels()
-            ? stats.interface_area(spacing) / (double(stats.pore_voxels()) * voxel_volume)
-            : 0.0;
-    nlohmann::json by_phase = nlohmann::json::object();
-    for (voxel::Phase p : {voxel::Phase::kOrganic, voxel::Phase::kInorganic}) {
-      std::int64_t f = 0;
-      for (std::size_t ax = 0; ax < 3; ++ax) f += stats.faces[ax][static_cast<std::size_t>(p)];
-      if (f == 0) continue;
-      by_phase[voxel::phase_name(p)] = {{"faces", f},
-                                        {"interface_area", stats.interface_area(spacing, p)}};
-    }
-    s["by_solid_phase"] = by_phase;
-    record["surface"] = s;
-    progress.note("specific surface area " + fixed(stats.specific_surface_area(spacing)) + " 1/" +
+// The pore-solid interface: face counts, areas, and the area by solid phase.
+void record_surface(const AnalyzeContext& c) {
+  const voxel::PoreStatistics& stats = c.stats;
+  const voxel::Spacing spacing = c.labels.spacing();
+  nlohmann::json s;
+  std::array<double, 3> faces{};
+  for (std::size_t ax = 0; ax < 3; ++ax) faces[ax] = double(stats.faces_normal_to(int(ax)));
+  s["faces"] = per_axis(faces);
+  s["interface_area"] = stats.interface_area(spacing);
+  s["specific_surface_area"] = stats.specific_surface_area(spacing);
+  s["specific_surface_area_unit"] = "1/" + spacing.unit;
+  s["area_per_pore_volume"] =
+      stats.pore_voxels()
+          ? stats.interface_area(spacing) / (double(stats.pore_voxels()) * c.voxel_volume())
+          : 0.0;
+  nlohmann::json by_phase = nlohmann::json::object();
+  for (voxel::Phase p : {voxel::Phase::kOrganic, voxel::Phase::kInorganic}) {
+    std::int64_t f = 0;
+    for (std::size_t ax = 0; ax < 3; ++ax) f += stats.faces[ax][static_cast<std::size_t>(p)];
+    if (f == 0) continue;
+    by_phase[voxel::phase_name(p)] = {{"faces", f},
+                                      {"interface_area", stats.interface_area(spacing, p)}};
+  }
+  s["by_solid_phase"] = by_phase;
+  c.record["surface"] = s;
+  c.progress.note("specific surface area " + fixed(stats.specific_surface_area(spacing)) + " 1/" +
                   spacing.unit + " (voxel faces)");
-  }
+}
 
-  // Profiles.
-  {
-    nlohmann::json profiles = nlohmann::json::object();
-    const double h[3] = {spacing.dz, spacing.dy, spacing.dx};
-    for (int ax = 0; ax < 3; ++ax) {
-      const std::vector<double> p = stats.porosity_profile(ax);
-      std::vector<double> position(p.size());
-      for (std::size_t i = 0; i < p.size(); ++i) position[i] = (double(i) + 0.5) * h[ax];
-      profiles[voxel::axis_name(ax)] = {{"position", position}, {"porosity", p}};
-    }
-    record["profiles"] = profiles;
+// Porosity profiles along every axis, at the slice centres.
+void record_profiles(const AnalyzeContext& c) {
+  const voxel::Spacing spacing = c.labels.spacing();
+  nlohmann::json profiles = nlohmann::json::object();
+  const double h[3] = {spacing.dz, spacing.dy, spacing.dx};
+  for (int ax = 0; ax < 3; ++ax) {
+    const std::vector<double> p = c.stats.porosity_profile(ax);
+    std::vector<double> position(p.size());
+    for (std::size_t i = 0; i < p.size(); ++i) position[i] = (double(i) + 0.5) * h[ax];
+    profiles[voxel::axis_name(ax)] = {{"position", position}, {"porosity", p}};
   }
+  c.record["profiles"] = profiles;
+}
 
-  // Clusters.
-  {
-    const voxel::PoreRuns runs = progress.stage("pore runs", n, [&] {
-      return about_file(name, [&] { return voxel::find_pore_runs(labels); });
-    });
-    progress.note(std::to_string(runs.count()) + " pore runs, " +
-                  fixed(double(runs.bytes()) / double(1 << 20), 4) + " MiB");
-    record["pore_runs"] = runs.count();
-    nlohmann::json clusters = nlohmann::json::object();
-    for (int c : connectivities) {
-      voxel::ClusterOptions o;
-      o.connectivity = c;
-      const std::vector<voxel::Cluster> found =
-          progress.stage("clusters, " + std::to_string(c) + "-connected", n,
-                         [&] { return voxel::find_pore_clusters(runs, o); });
-      const voxel::PercolationSummary sum =
-          voxel::summarize_clusters(found, static_cast<std::size_t>(a.largest));
-      nlohmann::json j = cluster_record(sum, counted, voxel_volume);
-      clusters[std::to_string(c)] = j;
-      progress.note(std::to_string(c) + "-connected: " + std::to_string(sum.clusters) +
-                    " clusters; percolating porosity z " +
-                    fixed(j["percolating_porosity"]["z"].get<double>()) + ", y " +
-                    fixed(j["percolating_porosity"]["y"].get<double>()) + ", x " +
-                    fixed(j["percolating_porosity"]["x"].get<double>()) + "; " +
-                    std::to_string(sum.isolated_clusters) + " isolated clusters");
-    }
-    record["clusters"] = clusters;
+// Pore clusters and percolation for each connectivity; the pore runs are found once for all.
+void record_clusters(const AnalyzeContext& c, const std::vector<int>& connectivities) {
+  Progress& progress = c.progress;
+  const std::int64_t n = c.labels.voxels();
+  const voxel::PoreRuns runs = progress.stage("pore runs", n, [&] {
+    return about_file(c.name, [&] { return voxel::find_pore_runs(c.labels); });
+  });
+  progress.note(std::to_string(runs.count()) + " pore runs, " +
+                fixed(double(runs.bytes()) / double(1 << 20), 4) + " MiB");
+  c.record["pore_runs"] = runs.count();
+  nlohmann::json clusters = nlohmann::json::object();
+  for (int k : connectivities) {
+    voxel::ClusterOptions o;
+    o.connectivity = k;
+    const std::vector<voxel::Cluster> found =
+        progress.stage("clusters, " + std::to_string(k) + "-connected", n,
+                       [&] { return voxel::find_pore_clusters(runs, o); });
+    const voxel::PercolationSummary sum =
+        voxel::summarize_clusters(found, static_cast<std::size_t>(c.args.largest));
+    nlohmann::json j = cluster_record(sum, c.counted(), c.voxel_volume());
+    clusters[std::to_string(k)] = j;
+    progress.note(std::to_string(k) + "-connected: " + std::to_string(sum.clusters) +
+                  " clusters; percolating porosity z " +
+                  fixed(j["percolating_porosity"]["z"].get<double>()) + ", y " +
+                  fixed(j["percolating_porosity"]["y"].get<double>()) + ", x " +
+                  fixed(j["percolating_porosity"]["x"].get<double>()) + "; " +
+                  std::to_string(sum.isolated_clusters) + " isolated clusters");
   }
+  c.record["clusters"] = clusters;
+}
 
-  // Local thickness.
-  voxel::SizeDistribution psd;
-  bool have_psd = false;
-  if (!a.no_thickness) {
-    try {
-      const voxel::Volume thickness =
-          progress.stage("local thickness", n, [&] { return voxel::local_thickness(labels); });
-      psd = voxel::size_distribution(thickness, labels, a.psd_bins);
-      have_psd = true;
-    } catch (const ConfigError& e) {
-      progress.warn(name + ": " + e.what());
-    }
+// The local-thickness pore-size distribution, or none when skipped or when it cannot be
+// measured (a warning: the other statistics stand without it).
+std::optional<voxel::SizeDistribution> measure_local_thickness(const AnalyzeContext& c) {
+  if (c.args.no_thickness) return std::nullopt;
+  try {
+    const voxel::Volume thickness = c.progress.stage(
+        "local thickness", c.labels.voxels(), [&] { return voxel::local_thickness(c.labels); });
+    return voxel::size_distribution(thickness, c.labels, c.args.psd_bins);
+  } catch (const ConfigError& e) {
+    c.progress.warn(c.name + ": " + e.what());
   }
-  if (have_psd) {
-    nlohmann::json j;
-    j["unit"] = spacing.unit;
-    j["mean"] = psd.mean;
-    j["median"] = psd.median;
-    j["max"] = psd.max;
-    j["bin_lower"] = std::vector<double>(psd.edges.begin(), psd.edges.end() - 1);
-    j["bin_upper"] = std::vector<double>(psd.edges.begin() + 1, psd.edges.end());
-    j["voxels"] = psd.voxels;
-    j["pore_volume_fraction"] = psd.volume_fraction;
-    record["local_thickness"] = j;
-    progress.note("local thickness: mean " + fixed(psd.mean, 4) + ", median " +
-                  fixed(psd.median, 4) + ", max " + fixed(psd.max, 4) + " " + spacing.unit);
-  } else {
-    record["local_thickness"] = nullptr;
+  return std::nullopt;
+}
+
+void record_local_thickness(const AnalyzeContext& c,
+                            const std::optional<voxel::SizeDistribution>& psd) {
+  if (!psd) {
+    c.record["local_thickness"] = nullptr;
+    return;
   }
+  const std::string& unit = c.labels.spacing().unit;
+  nlohmann::json j;
+  j["unit"] = unit;
+  j["mean"] = psd->mean;
+  j["median"] = psd->median;
+  j["max"] = psd->max;
+  j["bin_lower"] = std::vector<double>(psd->edges.begin(), psd->edges.end() - 1);
+  j["bin_upper"] = std::vector<double>(psd->edges.begin() + 1, psd->edges.end());
+  j["voxels"] = psd->voxels;
+  j["pore_volume_fraction"] = psd->volume_fraction;
+  c.record["local_thickness"] = j;
+  c.progress.note("local thickness: mean " + fixed(psd->mean, 4) + ", median " +
+                  fixed(psd->median, 4) + ", max " + fixed(psd->max, 4) + " " + unit);
+}
 
-  nlohmann::json outputs = {"analysis.json", "porosity_profile.png"};
-  if (have_psd) outputs.push_back("pore_size_distribution.png");
-  record["outputs"] = outputs;
-  record["warnings"] = progress.warnings();
-
+// The plots and analysis.json, which take their names together.
+void write_analysis(const AnalyzeContext& c, const std::optional<voxel::SizeDistribution>& psd) {
+  const AnalyzeArgs& a = c.args;
+  const std::string& unit = c.labels.spacing().unit;
   const fs::path out(a.out);
-  progress.stage("write " + a.out, 0, [&] {
+  c.progress.stage("write " + a.out, 0, [&] {
     voxel::StagedOutputs staged = voxel::StagedOutputs::in_directory(out);
     {
       mesorock::plot::Plot plot;
       plot.title = "Porosity profile along " + a.profile_axis;
-      plot.x_label = a.profile_axis + " (" + spacing.unit + ")";
+      plot.x_label = a.profile_axis + " (" + unit + ")";
       plot.y_label = "porosity";
-      plot.x = record["profiles"][a.profile_axis]["position"].get<std::vector<double>>();
-      plot.y = stats.porosity_profile(profile_axis);
+      plot.x = c.record["profiles"][a.profile_axis]["position"].get<std::vector<double>>();
+      plot.y = c.stats.porosity_profile(c.profile_axis);
       mesorock::plot::write_plot_png(plot, staged.stage("porosity_profile.png"),
                                      (out / "porosity_profile.png").string());
     }
-    if (have_psd) {
+    if (psd) {
       mesorock::plot::Plot plot;
       plot.title = "Pore size distribution (local thickness)";
-      plot.x_label = "local thickness (" + spacing.unit + ")";
+      plot.x_label = "local thickness (" + unit + ")";
       plot.y_label = "pore volume fraction";
       plot.style = mesorock::plot::PlotStyle::kBars;
-      plot.x.assign(psd.edges.begin(), psd.edges.end() - 1);
-      plot.y = psd.volume_fraction;
-      plot.bar_width = psd.edges.size() > 1 ? psd.edges[1] - psd.edges[0] : 1.0;
+      plot.x.assign(psd->edges.begin(), psd->edges.end() - 1);
+      plot.y = psd->volume_fraction;
+      plot.bar_width = psd->edges.size() > 1 ? psd->edges[1] - psd->edges[0] : 1.0;
       mesorock::plot::write_plot_png(plot, staged.stage("pore_size_distribution.png"),
                                      (out / "pore_size_distribution.png").string());
     }
-    write_json(staged.stage("analysis.json"), record, (out / "analysis.json").string());
+    write_json(staged.stage("analysis.json"), c.record, (out / "analysis.json").string());
     staged.commit();
   });
+}
+
+int run_analyze(const AnalyzeArgs& a) {
+  const std::vector<int> connectivities = connectivities_of(a.connectivity);
+  const int profile_axis = voxel::parse_axis(a.profile_axis);
+  check_output_folder(a.out);
+
+  Progress progress(a.quiet);
+  nlohmann::json record = provenance("analyze");
+  nlohmann::json input;
+  const voxel::Volume labels = load_labels(a.input, progress, &input);
+  record["input"] = input;
+  const std::string& name = input["path"].get_ref<const std::string&>();
+
+  const voxel::PoreStatistics stats = progress.stage(
+      "porosity, interfaces, profiles", labels.voxels(),
+      [&] { return about_file(name, [&] { return voxel::measure_pores(labels); }); });
+  progress.note("porosity " + fixed(stats.counts.porosity()) + " (" +
+                std::to_string(stats.pore_voxels()) + " pore of " +
+                std::to_string(stats.counts.counted()) + " counted voxels)");
+  const std::string warning = voxel::porosity_warning(stats.counts);
+  if (!warning.empty()) progress.warn(name + ": " + warning);
+
+  const AnalyzeContext c{a, profile_axis, name, labels, stats, progress, record};
+  record_block(c, connectivities);
+  record_surface(c);
+  record_profiles(c);
+  record_clusters(c, connectivities);
+  const std::optional<voxel::SizeDistribution> psd = measure_local_thickness(c);
+  record_local_thickness(c, psd);
+
+  nlohmann::json outputs = {"analysis.json", "porosity_profile.png"};
+  if (psd) outputs.push_back("pore_size_distribution.png");
+  record["outputs"] = outputs;
+  record["warnings"] = progress.warnings();
+  write_analysis(c, psd);
   return 0;
 }
 

@@ -199,25 +199,35 @@ voxel::Volume labels_of(const RunArgs& a, Progress& progress, nlohmann::json* re
   return labels;
 }
 
-int run_run(const RunArgs& a) {
-  const auto t0 = std::chrono::steady_clock::now();
-  // Everything the user typed is checked before the load.
+// What the options decide before the load. Everything the user typed is checked here, so a
+// mistake costs no loading time.
+struct RunPlan {
+  voxel::LengthScale scale;  // as given: none, or the rc per voxel, chosen after the load
+  int flow_axis = 0;
+  packing::Fill wall_fill = packing::Fill::Tiles, fluid_fill = packing::Fill::Tiles,
+                slab_fill = packing::Fill::Tiles;
+  bool permeability = false;
+  double a_organic = 0, a_inorganic = 0;  // the layout's defaults where not given
+  std::optional<voxel::VoxelBox> crop;
+};
+
+RunPlan plan_run(const RunArgs& a) {
   if (a.nm_per_rc > 0 && a.rc_per_voxel > 0)
     throw ConfigError(
         "run: the length scale is explicit: give one of --nm-per-rc X (physical nanopores) or "
         "--rc-per-voxel Y, or neither (the rc per voxel is then chosen from the pore sizes)");
   if (a.nm_per_rc < 0 || a.rc_per_voxel < 0)
     throw ConfigError("run: --nm-per-rc and --rc-per-voxel must be positive");
-  voxel::LengthScale scale;
-  scale.nm_per_rc = a.nm_per_rc;
-  scale.rc_per_voxel = a.rc_per_voxel;
-  const int flow_axis = a.flow_axis == "x" ? 0 : a.flow_axis == "y" ? 1 : 2;
-  const packing::Fill wall_fill = packing::parse_fill(a.wall_fill);
-  const packing::Fill fluid_fill = packing::parse_fill(a.fluid_fill);
-  const packing::Fill slab_fill = packing::parse_fill(a.slab_fill);
-  if (wall_fill == packing::Fill::Random || slab_fill == packing::Fill::Random)
+  RunPlan plan;
+  plan.scale.nm_per_rc = a.nm_per_rc;
+  plan.scale.rc_per_voxel = a.rc_per_voxel;
+  plan.flow_axis = a.flow_axis == "x" ? 0 : a.flow_axis == "y" ? 1 : 2;
+  plan.wall_fill = packing::parse_fill(a.wall_fill);
+  plan.fluid_fill = packing::parse_fill(a.fluid_fill);
+  plan.slab_fill = packing::parse_fill(a.slab_fill);
+  if (plan.wall_fill == packing::Fill::Random || plan.slab_fill == packing::Fill::Random)
     throw ConfigError("run: walls and slabs are packed from tiles or a lattice, not at random");
-  if (fluid_fill == packing::Fill::Lattice)
+  if (plan.fluid_fill == packing::Fill::Lattice)
     throw ConfigError("run: fluid is packed from tiles or at random, not on a lattice");
   if (!(a.wall_density > 0) || !(a.fluid_density > 0))
     throw ConfigError("run: --wall-density and --fluid-density must be positive");
@@ -225,11 +235,11 @@ int run_run(const RunArgs& a) {
   if (!(a.dt > 0) || a.dt > 0.1) throw ConfigError("run: --dt must be in (0, 0.1]");
   if (a.pressure_drop < 0) throw ConfigError("run: --pressure-drop must be >= 0");
   const bool permeability = a.layout == "permeability";
-  const double a_organic =
-      std::isnan(a.a_organic) ? (permeability ? kNoSlipWallA : -30.0) : a.a_organic;
-  const double a_inorganic =
+  plan.permeability = permeability;
+  plan.a_organic = std::isnan(a.a_organic) ? (permeability ? kNoSlipWallA : -30.0) : a.a_organic;
+  plan.a_inorganic =
       std::isnan(a.a_inorganic) ? (permeability ? kNoSlipWallA : -40.0) : a.a_inorganic;
-  if (!std::isfinite(a_organic) || !std::isfinite(a_inorganic))
+  if (!std::isfinite(plan.a_organic) || !std::isfinite(plan.a_inorganic))
     throw ConfigError("run: --a-organic and --a-inorganic must be finite");
   if (permeability) {
     const std::string o = first_given(a.flooding_only);
@@ -241,140 +251,189 @@ int run_run(const RunArgs& a) {
     if (!o.empty()) throw ConfigError("run: " + o + " belongs to --layout permeability");
   }
   check_output_folder(a.out);
-  std::optional<voxel::VoxelBox> crop;
-  if (!a.crop.empty()) crop = voxel::parse_voxel_box(a.crop, "--crop");
-  tiledb::TileDatabase db;
-  if (!a.tiles_db.empty() && fs::exists(a.tiles_db)) db = tiledb::read_tile_database(a.tiles_db);
+  if (!a.crop.empty()) plan.crop = voxel::parse_voxel_box(a.crop, "--crop");
+  return plan;
+}
 
-  if (a.generation.threads > 0) omp_set_num_threads(a.generation.threads);
-  Progress progress(a.quiet);
-  auto say = [&](const std::string& line) { progress.note(line); };
-  nlohmann::json record = provenance("run");
-  nlohmann::json input;
-  voxel::Volume labels = labels_of(a, progress, &input);
-  record["input"] = input;
-  const std::string& name = a.input.input.path;
-  if (crop) {
-    about_file(name, [&] { voxel::check_box(*crop, labels.shape()); });
-    labels = progress.stage("crop " + crop->str(), crop->shape().voxels(),
-                            [&] { return voxel::crop(labels, *crop); });
+// What every step after the plan reads and reports to.
+struct RunContext {
+  const RunArgs& args;
+  const RunPlan& plan;
+  Progress& progress;
+  nlohmann::json& record;  // run.json, filled in as the steps go
+  std::chrono::steady_clock::time_point start;
+  const std::string& name() const { return args.input.input.path; }  // for messages
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
-  const voxel::Shape shape = labels.shape();
-  // A sample without solid has no permeability (its driven fluid would accelerate without bound):
-  // refused before any work.
-  if (permeability) {
+};
+
+// The block's labels: segmented or read (labels_of), cropped; a permeability block without
+// solid is refused here, before any work on it.
+voxel::Volume load_block(const RunContext& c) {
+  nlohmann::json input;
+  voxel::Volume labels = labels_of(c.args, c.progress, &input);
+  c.record["input"] = input;
+  const std::optional<voxel::VoxelBox>& crop = c.plan.crop;
+  if (crop) {
+    about_file(c.name(), [&] { voxel::check_box(*crop, labels.shape()); });
+    labels = c.progress.stage("crop " + crop->str(), crop->shape().voxels(),
+                              [&] { return voxel::crop(labels, *crop); });
+  }
+  // A sample without solid has no permeability (its driven fluid would accelerate without bound).
+  if (c.plan.permeability) {
     const voxel::PhaseCounts counts = voxel::count_phases(labels);
     if (counts.voxels[2] + counts.voxels[3] == 0)
-      throw ConfigError(name +
+      throw ConfigError(c.name() +
                         ": permeability layout: the block has no solid voxel, and a sample "
                         "without solid has no permeability");
   }
+  return labels;
+}
+
+// The block's size in rc: its pore sizes, the length scale (the rc per voxel chosen from them
+// when none was given) and the voxel edges in rc.
+struct BlockScale {
+  voxel::LengthScale scale;
+  PoreSizes sizes;
+  std::array<double, 3> voxel_rc{};  // voxel edges in rc (x, y, z)
+  double nm_per_rc = 0;              // 0: no physical size
+};
+
+BlockScale scale_block(const RunContext& c, const voxel::Volume& labels) {
+  const RunArgs& a = c.args;
+  BlockScale b;
+  b.scale = c.plan.scale;
   // Pore sizes and, without a length scale, the rc per voxel that resolves the throats
   // (pipeline/prep/stokes_regime.h).
-  const PoreSizes sizes = pore_sizes_of(labels, flow_axis, progress, name);
+  b.sizes = pore_sizes_of(labels, c.plan.flow_axis, c.progress, c.name());
   if (a.nm_per_rc == 0 && a.rc_per_voxel == 0) {
-    scale.rc_per_voxel = auto_rc_per_voxel(sizes.critical_voxels);
+    b.scale.rc_per_voxel = auto_rc_per_voxel(b.sizes.critical_voxels);
     std::ostringstream s;
     s.precision(3);
-    s << "no length scale given: " << scale.rc_per_voxel
+    s << "no length scale given: " << b.scale.rc_per_voxel
       << " rc per voxel, so the critical pore diameter along " << a.flow_axis << " ("
-      << sizes.critical_voxels << " voxels) is " << sizes.critical_voxels * scale.rc_per_voxel
+      << b.sizes.critical_voxels << " voxels) is " << b.sizes.critical_voxels * b.scale.rc_per_voxel
       << " rc (at least " << kResolvedThroatRc << " rc: docs/accuracy.md, resolution on real rock)";
-    progress.note(s.str());
+    c.progress.note(s.str());
   }
-  const double rc_per_voxel = scale.rc_per_voxel;
   const std::array<double, 3> voxel_zyx =
-      about_file(name, [&] { return voxel::voxel_size_rc(scale, labels.spacing()); });
-  const std::array<double, 3> voxel_rc{voxel_zyx[2], voxel_zyx[1], voxel_zyx[0]};
-  double nm_per_rc = a.nm_per_rc;
-  if (nm_per_rc == 0 && labels.spacing().known())
-    nm_per_rc = voxel::nanometres_per(labels.spacing().unit) * labels.spacing().dx / rc_per_voxel;
-  {
-    std::ostringstream s;
-    s.precision(4);
-    s << "block " << shape.str() << " voxels of " << voxel_rc[2] << " x " << voxel_rc[1] << " x "
-      << voxel_rc[0] << " rc (z, y, x), scale " << scale.str() << "; flow along " << a.flow_axis;
-    if (permeability)
-      s << "; permeability layout, periodic"
-        << (a.no_mirror ? "" : ", mirrored along the flow axis");
-    progress.note(s.str());
-  }
-  // Layout: connected pores, wall sweep, and the reservoirs and slabs (flooding) or the mirror
-  // image and periodic box (permeability).
-  packing::FloodingOptions fo;
-  fo.flow_axis = flow_axis;
-  fo.voxel_rc = voxel_rc;
-  fo.wall_thickness_rc = a.wall_thickness_rc;
-  fo.connected_only = !a.all_pores;
-  fo.connectivity = a.connectivity;
-  fo.inlet_rc = a.inlet_rc;
-  fo.outlet_rc = a.outlet_rc;
-  fo.slab_rc = a.slab_rc;
-  fo.room_rc = a.room_rc;
-  const std::int64_t nblock = shape.voxels();
+      about_file(c.name(), [&] { return voxel::voxel_size_rc(b.scale, labels.spacing()); });
+  b.voxel_rc = {voxel_zyx[2], voxel_zyx[1], voxel_zyx[0]};
+  b.nm_per_rc = a.nm_per_rc;
+  if (b.nm_per_rc == 0 && labels.spacing().known())
+    b.nm_per_rc =
+        voxel::nanometres_per(labels.spacing().unit) * labels.spacing().dx / b.scale.rc_per_voxel;
+  std::ostringstream s;
+  s.precision(4);
+  s << "block " << labels.shape().str() << " voxels of " << b.voxel_rc[2] << " x " << b.voxel_rc[1]
+    << " x " << b.voxel_rc[0] << " rc (z, y, x), scale " << b.scale.str() << "; flow along "
+    << a.flow_axis;
+  if (c.plan.permeability)
+    s << "; permeability layout, periodic" << (a.no_mirror ? "" : ", mirrored along the flow axis");
+  c.progress.note(s.str());
+  return b;
+}
+
+// One of the two layouts, whichever --layout asks for; active() is the one in use.
+struct RunLayout {
+  bool permeability = false;
   packing::FloodingLayout flooding;
   packing::PermeabilityLayout periodic;
-  packing::VoxelLayout& layout =
-      permeability ? static_cast<packing::VoxelLayout&>(periodic) : flooding;
+  packing::VoxelLayout& active() {
+    return permeability ? static_cast<packing::VoxelLayout&>(periodic) : flooding;
+  }
+  const packing::VoxelLayout& active() const {
+    return permeability ? static_cast<const packing::VoxelLayout&>(periodic) : flooding;
+  }
+};
+
+// The options both layouts take alike: flow axis, voxel size, wall thickness, pore clusters.
+template <class LayoutOptions>
+LayoutOptions layout_options(const RunContext& c, const BlockScale& b) {
+  LayoutOptions o;
+  o.flow_axis = c.plan.flow_axis;
+  o.voxel_rc = b.voxel_rc;
+  o.wall_thickness_rc = c.args.wall_thickness_rc;
+  o.connected_only = !c.args.all_pores;
+  o.connectivity = c.args.connectivity;
+  return o;
+}
+
+// Connected pores, wall sweep, and the reservoirs and slabs (flooding) or the mirror image and
+// periodic box (permeability); progress lines say what became of the voxels.
+RunLayout build_layout(const RunContext& c, const BlockScale& b, voxel::Volume labels) {
+  const RunArgs& a = c.args;
+  const bool permeability = c.plan.permeability;
+  const std::int64_t nblock = labels.voxels();
+  RunLayout l;
+  l.permeability = permeability;
   if (permeability) {
-    packing::PermeabilityOptions po;
-    po.flow_axis = flow_axis;
-    po.voxel_rc = voxel_rc;
-    po.wall_thickness_rc = a.wall_thickness_rc;
-    po.connected_only = !a.all_pores;
-    po.connectivity = a.connectivity;
+    auto po = layout_options<packing::PermeabilityOptions>(c, b);
     po.mirror = !a.no_mirror;
-    periodic = progress.stage("pore clusters, wall sweep, periodic layout", nblock, [&] {
-      return about_file(name,
+    l.periodic = c.progress.stage("pore clusters, wall sweep, periodic layout", nblock, [&] {
+      return about_file(c.name(),
                         [&] { return packing::build_permeability_layout(std::move(labels), po); });
     });
   } else {
-    flooding = progress.stage("pore clusters, wall sweep, layout", nblock, [&] {
-      return about_file(name,
+    auto fo = layout_options<packing::FloodingOptions>(c, b);
+    fo.inlet_rc = a.inlet_rc;
+    fo.outlet_rc = a.outlet_rc;
+    fo.slab_rc = a.slab_rc;
+    fo.room_rc = a.room_rc;
+    l.flooding = c.progress.stage("pore clusters, wall sweep, layout", nblock, [&] {
+      return about_file(c.name(),
                         [&] { return packing::build_flooding_layout(std::move(labels), fo); });
     });
   }
-  if (fo.connected_only) {
-    progress.note(std::to_string(layout.spanning_clusters) + " of " +
-                  std::to_string(layout.clusters) +
-                  (permeability ? " pore clusters join the block's faces along " + a.flow_axis
-                                : std::string(" pore clusters join the inlet and outlet")) +
-                  "; " + std::to_string(layout.pore_voxels_dropped) +
-                  " pore voxels of the others become solid");
+  const packing::VoxelLayout& layout = l.active();
+  if (!a.all_pores) {
+    c.progress.note(std::to_string(layout.spanning_clusters) + " of " +
+                    std::to_string(layout.clusters) +
+                    (permeability ? " pore clusters join the block's faces along " + a.flow_axis
+                                  : std::string(" pore clusters join the inlet and outlet")) +
+                    "; " + std::to_string(layout.pore_voxels_dropped) +
+                    " pore voxels of the others become solid");
   }
   const auto& rv = layout.role_voxels;
-  progress.note(std::to_string(layout.pore_voxels) + " pore voxels, " +
-                std::to_string(rv[packing::kRoleOrganicWall] + rv[packing::kRoleInorganicWall]) +
-                " wall voxels (organic " + std::to_string(rv[packing::kRoleOrganicWall]) +
-                ", inorganic " + std::to_string(rv[packing::kRoleInorganicWall]) + ") of " +
-                std::to_string(layout.solid_voxels) + " solid" +
-                (permeability ? " (pore and solid in the block, walls in the box; " +
-                                    std::to_string(rv[packing::kRoleBlockFluid]) +
-                                    " fluid voxels in the box)"
-                              : std::string()));
+  c.progress.note(std::to_string(layout.pore_voxels) + " pore voxels, " +
+                  std::to_string(rv[packing::kRoleOrganicWall] + rv[packing::kRoleInorganicWall]) +
+                  " wall voxels (organic " + std::to_string(rv[packing::kRoleOrganicWall]) +
+                  ", inorganic " + std::to_string(rv[packing::kRoleInorganicWall]) + ") of " +
+                  std::to_string(layout.solid_voxels) + " solid" +
+                  (permeability ? " (pore and solid in the block, walls in the box; " +
+                                      std::to_string(rv[packing::kRoleBlockFluid]) +
+                                      " fluid voxels in the box)"
+                                : std::string()));
+  return l;
+}
 
-  if (sizes.available) {
-    const double rc = voxel_rc[0];  // rc per voxel edge (local thickness is in voxels along x)
-    std::ostringstream s;
-    s.precision(3);
-    s << "pore sizes (local thickness by pore volume): d10 " << sizes.d10_voxels * rc << ", median "
-      << sizes.median_voxels * rc << ", mean " << sizes.mean_voxels * rc << ", max "
-      << sizes.max_voxels * rc << " rc; critical diameter along " << a.flow_axis << " "
-      << sizes.critical_voxels * rc << " rc (the largest sphere that passes through)";
-    progress.note(s.str());
-    // Only a permeability measurement has a resolution to meet (docs/accuracy.md).
-    if (permeability && sizes.critical_voxels * rc < kResolvedThroatRc) {
-      std::ostringstream w;
-      w.precision(3);
-      w << "the throats that control the flow are " << sizes.critical_voxels * rc
-        << " rc across (critical pore diameter along " << a.flow_axis << "), below the "
-        << kResolvedThroatRc
-        << " rc at which the resolution study found the permeability within 10% of a "
-           "continuum solution (docs/accuracy.md): use --rc-per-voxel "
-        << auto_rc_per_voxel(sizes.critical_voxels) << " or more";
-      progress.warn(w.str());
-    }
-    record["pore_sizes"] = {{"method",
+// The pore sizes in rc: a progress line, the record's "pore_sizes", and for a permeability
+// measurement a warning when the throats are not resolved (docs/accuracy.md).
+void report_pore_sizes(const RunContext& c, const BlockScale& b) {
+  const PoreSizes& sizes = b.sizes;
+  if (!sizes.available) return;
+  const std::string& axis = c.args.flow_axis;
+  const double rc = b.voxel_rc[0];  // rc per voxel edge (local thickness is in voxels along x)
+  std::ostringstream s;
+  s.precision(3);
+  s << "pore sizes (local thickness by pore volume): d10 " << sizes.d10_voxels * rc << ", median "
+    << sizes.median_voxels * rc << ", mean " << sizes.mean_voxels * rc << ", max "
+    << sizes.max_voxels * rc << " rc; critical diameter along " << axis << " "
+    << sizes.critical_voxels * rc << " rc (the largest sphere that passes through)";
+  c.progress.note(s.str());
+  // Only a permeability measurement has a resolution to meet (docs/accuracy.md).
+  if (c.plan.permeability && sizes.critical_voxels * rc < kResolvedThroatRc) {
+    std::ostringstream w;
+    w.precision(3);
+    w << "the throats that control the flow are " << sizes.critical_voxels * rc
+      << " rc across (critical pore diameter along " << axis << "), below the " << kResolvedThroatRc
+      << " rc at which the resolution study found the permeability within 10% of a "
+         "continuum solution (docs/accuracy.md): use --rc-per-voxel "
+      << auto_rc_per_voxel(sizes.critical_voxels) << " or more";
+    c.progress.warn(w.str());
+  }
+  c.record["pore_sizes"] = {{"method",
                              "local thickness by pore volume of the block; critical diameter: the "
                              "largest sphere whose centres connect the faces along the flow axis"},
                             {"d10_rc", sizes.d10_voxels * rc},
@@ -383,13 +442,27 @@ int run_run(const RunArgs& a) {
                             {"max_rc", sizes.max_voxels * rc},
                             {"critical_rc", sizes.critical_voxels * rc},
                             {"resolved_critical_rc", kResolvedThroatRc}};
-  }
+}
 
-  // Tiles.
+// The tile sets the packing draws from, and where they came from.
+struct RunTiles {
+  tiledb::TileDatabase db;  // --tiles (when it exists), grown by the sets built here
+  std::size_t sets_before = 0;
+  fs::path cache_dir;  // empty: no cache
+  const tiledb::TileSet* wall = nullptr;
+  const tiledb::TileSet* fluid = nullptr;
+  bool built_any = false;
+  nlohmann::json sources = nlohmann::json::object();
+};
+
+// The wall and fluid sets the fills need: from --tiles, else the shared cache, else built (the
+// record so far is their provenance).
+void find_tile_sets(const RunContext& c, const BlockScale& b, RunTiles& t) {
+  const RunArgs& a = c.args;
   tiledb::TileKey wall_key;
   wall_key.role = tiledb::TileRole::Wall;
   wall_key.density = a.wall_density;
-  wall_key.edge = voxel_rc;
+  wall_key.edge = b.voxel_rc;
   wall_key.A = a.a_wall;
   wall_key.B = a.B;
   wall_key.rd = a.rd;
@@ -397,108 +470,128 @@ int run_run(const RunArgs& a) {
   wall_key.kBT = a.kBT;
   wall_key.density_kernel =
       a.density_kernel == "lucy" ? sim::DensityKernelKind::Lucy : sim::DensityKernelKind::Warren;
-  tiledb::TileKey fluid_key;
+  tiledb::TileKey fluid_key = wall_key;  // the same pair set but the fluid-fluid A
   fluid_key.role = tiledb::TileRole::Fluid;
   fluid_key.density = a.fluid_density;
-  fluid_key.edge = voxel_rc;
   fluid_key.A = a.a_fluid;
-  fluid_key.B = a.B;
-  fluid_key.rd = a.rd;
-  fluid_key.gamma = a.gamma;
-  fluid_key.kBT = a.kBT;
-  fluid_key.density_kernel = wall_key.density_kernel;
-  const tiledb::TileSet* wall_tiles = nullptr;
-  const tiledb::TileSet* fluid_tiles = nullptr;
-  bool built_any = false;
-  const std::size_t sets_before = db.sets.size();
+  t.sets_before = t.db.sets.size();
   // Sets missing from --tiles come from the shared cache when there is one (a second run with
   // the same fluid builds nothing); the cache is not used when --tiles names the database.
-  const fs::path cache_dir =
-      a.tiles_db.empty() && a.tile_cache != "none" ? fs::path(a.tile_cache) : fs::path();
-  nlohmann::json tile_sources = nlohmann::json::object();
+  t.cache_dir = a.tiles_db.empty() && a.tile_cache != "none" ? fs::path(a.tile_cache) : fs::path();
+  auto say = [&](const std::string& line) { c.progress.note(line); };
   auto tiles_for = [&](const char* what, const tiledb::TileKey& key) {
     TileSource source = TileSource::Built;
-    progress.stage(std::string(what) + " tiles", 0, [&] {
-      find_or_build_tiles(db, key, a.generation, record.dump(), say, &source, cache_dir);
+    c.progress.stage(std::string(what) + " tiles", 0, [&] {
+      find_or_build_tiles(t.db, key, a.generation, c.record.dump(), say, &source, t.cache_dir);
     });
-    built_any = built_any || source == TileSource::Built;
-    tile_sources[what] = to_string(source);
+    t.built_any = t.built_any || source == TileSource::Built;
+    t.sources[what] = to_string(source);
   };
-  if (wall_fill == packing::Fill::Tiles || (!permeability && slab_fill == packing::Fill::Tiles))
+  const RunPlan& p = c.plan;
+  if (p.wall_fill == packing::Fill::Tiles ||
+      (!p.permeability && p.slab_fill == packing::Fill::Tiles))
     tiles_for("wall", wall_key);
-  if (fluid_fill == packing::Fill::Tiles) tiles_for("fluid", fluid_key);
+  if (p.fluid_fill == packing::Fill::Tiles) tiles_for("fluid", fluid_key);
   // Pointers only now: building a set may have grown the vector.
-  wall_tiles = db.find(wall_key);
-  fluid_tiles = db.find(fluid_key);
+  t.wall = t.db.find(wall_key);
+  t.fluid = t.db.find(fluid_key);
+}
 
-  // Types and roles.
+// The particle types and what each role of the layout is packed with.
+struct ParticleRoles {
+  std::vector<std::string> types;
+  std::vector<packing::RoleSpec> roles;  // role code c at c - 1
+};
+
+ParticleRoles particle_roles(const RunContext& c, const RunLayout& l, const RunTiles& t) {
+  const RunArgs& a = c.args;
+  const bool permeability = c.plan.permeability;
+  const packing::VoxelLayout& layout = l.active();
+  ParticleRoles p;
   // The permeability layout has one fluid type; its pores are the flooding layout's block-fluid
   // role, and the reservoir and slab roles have no voxels.
-  std::vector<std::string> types = permeability ? std::vector<std::string>{"fluid"}
-                                                : std::vector<std::string>{"source", "working"};
-  auto type_of = [&](const std::string& t) {
-    for (std::size_t i = 0; i < types.size(); ++i)
-      if (types[i] == t) return static_cast<std::int32_t>(i);
-    types.push_back(t);
-    return static_cast<std::int32_t>(types.size() - 1);
+  p.types = permeability ? std::vector<std::string>{"fluid"}
+                         : std::vector<std::string>{"source", "working"};
+  auto type_of = [&](const std::string& name) {
+    for (std::size_t i = 0; i < p.types.size(); ++i)
+      if (p.types[i] == name) return static_cast<std::int32_t>(i);
+    p.types.push_back(name);
+    return static_cast<std::int32_t>(p.types.size() - 1);
   };
-  std::vector<packing::RoleSpec> roles(packing::kFloodingRoles);
+  p.roles.resize(packing::kFloodingRoles);
   auto fluid_role = [&](int code, const std::string& type) {
-    packing::RoleSpec& r = roles[static_cast<std::size_t>(code - 1)];
+    packing::RoleSpec& r = p.roles[static_cast<std::size_t>(code - 1)];
     r.name = packing::flooding_role_name(code);
     r.type = type_of(type);
-    r.fill = fluid_fill;
+    r.fill = c.plan.fluid_fill;
     r.density = a.fluid_density;
-    r.tiles = fluid_tiles;
+    r.tiles = t.fluid;
     r.thermal = true;
     r.kBT = a.kBT;
   };
   auto solid_role = [&](int code, const std::string& type, packing::Fill fill) {
-    packing::RoleSpec& r = roles[static_cast<std::size_t>(code - 1)];
+    packing::RoleSpec& r = p.roles[static_cast<std::size_t>(code - 1)];
     r.name = packing::flooding_role_name(code);
     r.type = layout.has_role(code) ? type_of(type) : 0;
     // A role the layout lacks (the permeability layout's slabs) packs nothing and needs no tiles:
     // with tiles it stopped `--wall-fill lattice --fluid-fill random` ("no tiles").
     r.fill = layout.has_role(code) ? fill : packing::Fill::Lattice;
     r.density = a.wall_density;
-    r.tiles = wall_tiles;
+    r.tiles = t.wall;
     r.thermal = false;
   };
   fluid_role(packing::kRoleBlockFluid, permeability ? "fluid" : "source");
   fluid_role(packing::kRoleInletFluid, permeability ? "fluid" : "working");
   fluid_role(packing::kRoleOutletFluid, permeability ? "fluid" : "source");
   if (permeability)
-    roles[static_cast<std::size_t>(packing::kRoleBlockFluid) - 1].name = "fluid in the pores";
-  solid_role(packing::kRoleOrganicWall, "organic_wall", wall_fill);
-  solid_role(packing::kRoleInorganicWall, "inorganic_wall", wall_fill);
-  solid_role(packing::kRolePushSlab, "push_slab", slab_fill);
-  solid_role(packing::kRoleBackSlab, "back_slab", slab_fill);
+    p.roles[static_cast<std::size_t>(packing::kRoleBlockFluid) - 1].name = "fluid in the pores";
+  solid_role(packing::kRoleOrganicWall, "organic_wall", c.plan.wall_fill);
+  solid_role(packing::kRoleInorganicWall, "inorganic_wall", c.plan.wall_fill);
+  solid_role(packing::kRolePushSlab, "push_slab", c.plan.slab_fill);
+  solid_role(packing::kRoleBackSlab, "back_slab", c.plan.slab_fill);
+  return p;
+}
 
-  // The estimate before anything is written.
+// The particle count expected from the densities, checked against --max-particles before
+// anything is written.
+void check_estimate(const RunContext& c, const BlockScale& b, const RunLayout& l,
+                    const ParticleRoles& p) {
+  const std::array<double, 3>& voxel_rc = b.voxel_rc;
   const double voxel_volume = voxel_rc[0] * voxel_rc[1] * voxel_rc[2];
   double expected = 0;
-  for (int c = 1; c <= packing::kFloodingRoles; ++c) {
-    const packing::RoleSpec& r = roles[static_cast<std::size_t>(c - 1)];
+  for (int code = 1; code <= packing::kFloodingRoles; ++code) {
+    const packing::RoleSpec& r = p.roles[static_cast<std::size_t>(code - 1)];
     const double rho =
         r.fill == packing::Fill::Tiles && r.tiles ? r.tiles->stats.density : r.density;
-    expected += static_cast<double>(rv[static_cast<std::size_t>(c)]) * voxel_volume * rho;
+    expected += static_cast<double>(l.active().role_voxels[static_cast<std::size_t>(code)]) *
+                voxel_volume * rho;
   }
-  progress.note("estimate: " + std::to_string(static_cast<std::int64_t>(expected)) +
-                " particles, " + gib(expected * packing::kParticleBytes) + " of particle arrays");
-  if (expected > static_cast<double>(a.max_particles))
-    throw LimitError(name + ": the set-up would hold about " +
+  c.progress.note("estimate: " + std::to_string(static_cast<std::int64_t>(expected)) +
+                  " particles, " + gib(expected * packing::kParticleBytes) + " of particle arrays");
+  if (expected > static_cast<double>(c.args.max_particles))
+    throw LimitError(c.name() + ": the set-up would hold about " +
                      std::to_string(static_cast<std::int64_t>(expected)) +
-                     " particles, more than --max-particles " + std::to_string(a.max_particles));
+                     " particles, more than --max-particles " +
+                     std::to_string(c.args.max_particles));
+}
 
-  // Pack, streaming into the particle file (and the LAMMPS file).
-  const fs::path out(a.out);
-  voxel::StagedOutputs staged = voxel::StagedOutputs::in_directory(out);
+// The output folder while it is written: its staged files and the particle sinks the packing
+// streams into (committed with the rest by write_outputs).
+struct RunOutputs {
+  voxel::StagedOutputs staged;
+  std::unique_ptr<packing::ParticleFileSink> particles;
+  std::unique_ptr<packing::LammpsDataSink> lammps;  // with --lammps
+};
+
+RunOutputs open_outputs(const RunContext& c, const RunLayout& l, const ParticleRoles& p) {
+  const RunArgs& a = c.args;
+  RunOutputs o{voxel::StagedOutputs::in_directory(fs::path(a.out)), nullptr, nullptr};
   sim::ParticleFileMeta meta;
-  meta.type_names = types;
-  meta.box = layout.box;
+  meta.type_names = p.types;
+  meta.box = l.active().box;
   meta.created_by = "rockprep run";
   meta.length_unit = "rc";
-  if (permeability) {
+  if (c.plan.permeability) {
     // What rockflow sweep needs and the scene cannot say for a file block: the driven fluid's
     // density (its default n_f).
     meta.provenance_json = nlohmann::json{
@@ -509,68 +602,110 @@ int run_run(const RunArgs& a) {
         {"mirrored",
          !a.no_mirror}}.dump();
   }
-  packing::ParticleFileSink file_sink(staged.stage("particles.h5"), meta);
-  std::unique_ptr<packing::LammpsDataSink> lammps;
-  std::vector<packing::ParticleSink*> sinks{&file_sink};
+  o.particles = std::make_unique<packing::ParticleFileSink>(o.staged.stage("particles.h5"), meta);
   if (a.lammps) {
-    lammps = std::make_unique<packing::LammpsDataSink>(staged.stage("particles.data"), types,
-                                                       layout.box, "mesorock rockprep run");
-    sinks.push_back(lammps.get());
+    o.lammps = std::make_unique<packing::LammpsDataSink>(o.staged.stage("particles.data"), p.types,
+                                                         l.active().box, "mesorock rockprep run");
   }
+  return o;
+}
+
+// The packing's results: its statistics, the box's voxel count, the solid's voxels, and the
+// particles by type and by role.
+struct PackedBlock {
+  packing::PackStats stats;
+  std::int64_t box_voxels = 0;  // the layout's voxels (block, reservoirs and slabs, or the box)
+  sim::SolidMask solid;
+  std::vector<std::int64_t> per_type;
+  nlohmann::json role_table = nlohmann::json::array();
+};
+
+// Packs the layout's voxels, streaming into the particle file (and the LAMMPS file); the layout's
+// voxel codes are dropped afterwards (the solid mask keeps what the solver needs).
+PackedBlock pack_block(const RunContext& c, const BlockScale& b, RunLayout& l,
+                       const ParticleRoles& p, RunOutputs& o) {
+  packing::VoxelLayout& layout = l.active();
+  std::vector<packing::ParticleSink*> sinks{o.particles.get()};
+  if (o.lammps) sinks.push_back(o.lammps.get());
   packing::TeeSink tee(sinks);
   packing::PackOptions po;
-  po.voxel_rc = voxel_rc;
+  po.voxel_rc = b.voxel_rc;
   po.origin = layout.origin;
-  po.seed = a.seed;
+  po.seed = c.args.seed;
   po.progress = [&](double f) {
     char line[64];
     std::snprintf(line, sizeof line, "  packed %.0f%% of the layers", 100 * f);
-    progress.note(line);
+    c.progress.note(line);
   };
-  const packing::PackStats stats = progress.stage(
+  PackedBlock packed;
+  packed.stats = c.progress.stage(
       "pack " + std::to_string(layout.codes.voxels()) + " voxels", layout.codes.voxels(),
-      [&] { return packing::pack_voxels(layout.codes, roles, po, tee); });
-  const std::int64_t ext_voxels = layout.codes.voxels();
+      [&] { return packing::pack_voxels(layout.codes, p.roles, po, tee); });
+  packed.box_voxels = layout.codes.voxels();
   // The solid's voxels for the solver (grains stay dry whatever the wall particles do) and for
   // a continuum reference on the identical geometry (rockflow lbm).
-  sim::SolidMask solid = permeability
-                             ? packing::solid_mask_of(layout, -1e300, 1e300)
-                             : packing::solid_mask_of(layout, flooding.block_lo, flooding.block_hi);
-  solid.nm_per_rc = nm_per_rc;
+  packed.solid = l.permeability
+                     ? packing::solid_mask_of(layout, -1e300, 1e300)
+                     : packing::solid_mask_of(layout, l.flooding.block_lo, l.flooding.block_hi);
+  packed.solid.nm_per_rc = b.nm_per_rc;
   layout.codes = voxel::Volume();
 
-  std::vector<std::int64_t> per_type(types.size(), 0);
-  nlohmann::json role_table = nlohmann::json::array();
-  for (int c = 1; c <= packing::kFloodingRoles; ++c) {
-    const packing::RoleCount& k = stats.roles[static_cast<std::size_t>(c - 1)];
-    const packing::RoleSpec& r = roles[static_cast<std::size_t>(c - 1)];
+  packed.per_type.assign(p.types.size(), 0);
+  for (int code = 1; code <= packing::kFloodingRoles; ++code) {
+    const packing::RoleCount& k = packed.stats.roles[static_cast<std::size_t>(code - 1)];
+    const packing::RoleSpec& r = p.roles[static_cast<std::size_t>(code - 1)];
     if (k.voxels == 0) continue;
-    per_type[static_cast<std::size_t>(r.type)] += k.particles;
-    role_table.push_back({{"role", r.name},
-                          {"type", types[static_cast<std::size_t>(r.type)]},
-                          {"fill", packing::to_string(r.fill)},
-                          {"voxels", k.voxels},
-                          {"particles", k.particles},
-                          {"expected", k.expected},
-                          {"standard_deviation", std::sqrt(k.variance)}});
+    packed.per_type[static_cast<std::size_t>(r.type)] += k.particles;
+    packed.role_table.push_back({{"role", r.name},
+                                 {"type", p.types[static_cast<std::size_t>(r.type)]},
+                                 {"fill", packing::to_string(r.fill)},
+                                 {"voxels", k.voxels},
+                                 {"particles", k.particles},
+                                 {"expected", k.expected},
+                                 {"standard_deviation", std::sqrt(k.variance)}});
   }
+  return packed;
+}
 
-  // Scene.
+// The scene file's header comment: what the set-up is and how to run it.
+std::string scene_comment(const RunArgs& a, bool permeability) {
+  std::ostringstream c;
+  if (permeability) {
+    c << "Permeability set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
+      << "): the block" << (a.no_mirror ? "" : " and its mirror image along " + a.flow_axis)
+      << " in a periodic box, the fluid driven by a body force along " << a.flow_axis
+      << ".\nSweep it: rockflow sweep scene.toml --out OUT --forces 0.01,0.02,0.03,0.04 "
+         "(docs/permeability.md); or rockflow run scene.toml --out OUT.\nSeed "
+      << a.seed << "; provenance in run.json.";
+  } else {
+    c << "Flooding set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
+      << ").\nRun it: rockflow run scene.toml --out OUT (regions.csv, saturation.csv: the "
+         "recovery curve).\nSeed "
+      << a.seed << "; provenance in run.json.";
+  }
+  return c.str();
+}
+
+// The scene's parameters (either layout's scene is written from them).
+PermeabilitySceneParams scene_params(const RunContext& c, const BlockScale& b,
+                                     const ParticleRoles& p, const RunTiles& t) {
+  const RunArgs& a = c.args;
   PermeabilitySceneParams sp;
   sp.name =
       fs::path(a.out).filename().string().empty() ? a.layout : fs::path(a.out).filename().string();
   sp.seed = a.seed;
-  sp.type_names = types;
+  sp.type_names = p.types;
   sp.a_fluid = a.a_fluid;
-  sp.a_organic = a_organic;
-  sp.a_inorganic = a_inorganic;
+  sp.a_organic = c.plan.a_organic;
+  sp.a_inorganic = c.plan.a_inorganic;
   sp.a_wall = a.a_wall;
   sp.B = a.B;
   sp.gamma = a.gamma;
   sp.rd = a.rd;
   sp.kBT = a.kBT;
   sp.density_kernel = a.density_kernel;
-  sp.wall_density = wall_fill == packing::Fill::Tiles ? wall_tiles->stats.density : a.wall_density;
+  sp.wall_density =
+      c.plan.wall_fill == packing::Fill::Tiles ? t.wall->stats.density : a.wall_density;
   sp.back_pressure = a.back_pressure >= 0 ? a.back_pressure
                                           : warren_pressure(a.fluid_density, a.a_fluid, a.B, a.rd);
   sp.push_pressure = sp.back_pressure + a.pressure_drop;
@@ -581,28 +716,20 @@ int run_run(const RunArgs& a) {
   sp.thermo_every = a.thermo_every;
   sp.region_every = a.region_every;
   sp.snapshot_every = a.snapshot_every;
-  sp.nm_per_rc = nm_per_rc;
+  sp.nm_per_rc = b.nm_per_rc;
   sp.body_force = a.body_force;
   sp.flow_steps = a.flow_steps;
-  if (permeability) {
-    std::ostringstream c;
-    c << "Permeability set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
-      << "): the block" << (a.no_mirror ? "" : " and its mirror image along " + a.flow_axis)
-      << " in a periodic box, the fluid driven by a body force along " << a.flow_axis
-      << ".\nSweep it: rockflow sweep scene.toml --out OUT --forces 0.01,0.02,0.03,0.04 "
-         "(docs/permeability.md); or rockflow run scene.toml --out OUT.\nSeed "
-      << a.seed << "; provenance in run.json.";
-    sp.comment = c.str();
-  } else {
-    std::ostringstream c;
-    c << "Flooding set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
-      << ").\nRun it: rockflow run scene.toml --out OUT (regions.csv, saturation.csv: the "
-         "recovery curve).\nSeed "
-      << a.seed << "; provenance in run.json.";
-    sp.comment = c.str();
-  }
+  sp.comment = scene_comment(a, c.plan.permeability);
+  return sp;
+}
 
-  record["parameters"] = {
+// run.json's "parameters": the options as used (the layout's defaults filled in).
+void record_parameters(const RunContext& c, const BlockScale& b,
+                       const PermeabilitySceneParams& sp) {
+  const RunArgs& a = c.args;
+  const voxel::LengthScale& scale = b.scale;
+  const std::array<double, 3>& voxel_rc = b.voxel_rc;
+  c.record["parameters"] = {
       {"scale", scale.nm_per_rc > 0 ? nlohmann::json{{"nm_per_rc", scale.nm_per_rc}}
                                     : nlohmann::json{{"rc_per_voxel", scale.rc_per_voxel}}},
       {"crop", a.crop},
@@ -610,7 +737,7 @@ int run_run(const RunArgs& a) {
       {"layout", a.layout},
       {"flow_axis", a.flow_axis},
       {"wall_thickness_rc", a.wall_thickness_rc},
-      {"connected_only", fo.connected_only},
+      {"connected_only", !a.all_pores},
       {"connectivity", a.connectivity},
       {"wall_fill", a.wall_fill},
       {"fluid_fill", a.fluid_fill},
@@ -620,15 +747,15 @@ int run_run(const RunArgs& a) {
       {"density_kernel", a.density_kernel},
       {"pairs",
        {{"a_fluid", a.a_fluid},
-        {"a_organic", a_organic},
-        {"a_inorganic", a_inorganic},
+        {"a_organic", c.plan.a_organic},
+        {"a_inorganic", c.plan.a_inorganic},
         {"a_wall", a.a_wall},
         {"B", a.B},
         {"gamma", a.gamma},
         {"rd", a.rd},
         {"kBT", a.kBT}}}};
-  nlohmann::json& parameters = record["parameters"];
-  if (permeability) {
+  nlohmann::json& parameters = c.record["parameters"];
+  if (c.plan.permeability) {
     parameters["mirror"] = !a.no_mirror;
     parameters["body_force"] = a.body_force;
     parameters["stages"] = {{"relax", a.relax_steps}, {"flow", a.flow_steps}};
@@ -643,30 +770,44 @@ int run_run(const RunArgs& a) {
     parameters["stages"] = {
         {"relax", a.relax_steps}, {"settle", a.settle_steps}, {"flood", a.flood_steps}};
   }
+}
+
+// run.json's "tiles": the sets used and where they came from.
+void record_tiles(const RunContext& c, const RunTiles& t) {
   nlohmann::json tiles_used = nlohmann::json::array();
-  for (const tiledb::TileSet* s : {wall_tiles, fluid_tiles})
+  for (const tiledb::TileSet* s : {t.wall, t.fluid})
     if (s)
       tiles_used.push_back({{"key", s->key.str()},
                             {"tiles", s->tiles()},
                             {"measured_density", s->stats.density},
                             {"temperature", s->stats.temperature},
                             {"seed", s->build.seed}});
-  record["tiles"] = {{"database", a.tiles_db.empty() ? "(built here)" : a.tiles_db},
-                     {"cache", cache_dir.empty() ? "none" : cache_dir.string()},
-                     {"copy", "tiles.h5"},
-                     {"sets", tiles_used},
-                     {"source", tile_sources},
-                     {"built_here", built_any}};
+  const std::string& tiles_db = c.args.tiles_db;
+  c.record["tiles"] = {{"database", tiles_db.empty() ? "(built here)" : tiles_db},
+                       {"cache", t.cache_dir.empty() ? "none" : t.cache_dir.string()},
+                       {"copy", "tiles.h5"},
+                       {"sets", tiles_used},
+                       {"source", t.sources},
+                       {"built_here", t.built_any}};
+}
+
+// run.json's "layout", "voxels" and "particles": the box's regions and what they hold.
+void record_layout(const RunContext& c, const RunLayout& l, const ParticleRoles& p,
+                   const PackedBlock& packed) {
+  const bool permeability = l.permeability;
+  const packing::VoxelLayout& layout = l.active();
+  const packing::FloodingLayout& flooding = l.flooding;
+  nlohmann::json& record = c.record;
   const std::array<double, 3> box_lo = layout.box.lo, box_hi = layout.box.hi;
   if (permeability) {
-    const std::array<double, 3> block_hi = periodic.block_extent;
+    const std::array<double, 3> block_hi = l.periodic.block_extent;
     record["layout"] = {{"kind", "permeability"},
                         {"box_lo", box_lo},
                         {"box_hi", box_hi},
                         {"periodic", {true, true, true}},
                         {"block_lo", std::array<double, 3>{0, 0, 0}},
                         {"block_hi", block_hi},
-                        {"mirrored", periodic.mirrored},
+                        {"mirrored", l.periodic.mirrored},
                         {"wall_layers_zyx", layout.wall_layers_zyx}};
   } else {
     record["layout"] = {{"kind", "flooding"},
@@ -679,8 +820,9 @@ int run_run(const RunArgs& a) {
                         {"back_slab", {flooding.back_lo, flooding.back_hi}},
                         {"wall_layers_zyx", layout.wall_layers_zyx}};
   }
+  const auto& rv = layout.role_voxels;
   record["voxels"] = {{"block", layout.block_voxels},
-                      {permeability ? "box" : "extended", ext_voxels},
+                      {permeability ? "box" : "extended", packed.box_voxels},
                       {"pore", layout.pore_voxels},
                       {"pore_dropped", layout.pore_voxels_dropped},
                       {"solid", layout.solid_voxels},
@@ -690,16 +832,35 @@ int run_run(const RunArgs& a) {
                       {"spanning_clusters", layout.spanning_clusters}};
   if (permeability) record["voxels"]["fluid_in_box"] = rv[packing::kRoleBlockFluid];
   nlohmann::json by_type = nlohmann::json::object();
-  for (std::size_t t = 0; t < types.size(); ++t) by_type[types[t]] = per_type[t];
-  record["particles"] = {{"total", stats.particles}, {"by_type", by_type}, {"by_role", role_table}};
+  for (std::size_t i = 0; i < p.types.size(); ++i) by_type[p.types[i]] = packed.per_type[i];
+  record["particles"] = {
+      {"total", packed.stats.particles}, {"by_type", by_type}, {"by_role", packed.role_table}};
+}
 
-  progress.stage("write " + a.out, 0, [&] {
-    file_sink.commit();
-    if (lammps) lammps->commit();
+// What write_outputs writes besides the particles: the solid, the scene, the tile sets.
+struct RunProducts {
+  const PackedBlock& packed;
+  const RunLayout& layout;
+  const PermeabilitySceneParams& scene;
+  const RunTiles& tiles;
+};
+
+// Commits the particle files and writes the solid, the scene, the tile sets and run.json (the
+// completion record, last); they take their names together. A --tiles database that grew is
+// saved too.
+void write_outputs(const RunContext& c, RunOutputs& o, const RunProducts& w) {
+  const RunArgs& a = c.args;
+  const bool permeability = c.plan.permeability;
+  const fs::path out(a.out);
+  nlohmann::json& record = c.record;
+  voxel::StagedOutputs& staged = o.staged;
+  c.progress.stage("write " + a.out, 0, [&] {
+    o.particles->commit();
+    if (o.lammps) o.lammps->commit();
     sim::write_particle_xdmf(staged.stage("particles.xmf"),
                              staged.final_path("particles.xmf").parent_path() / "particles.h5",
-                             static_cast<std::size_t>(stats.particles));
-    sim::write_solid_file(staged.stage("solid.h5"), solid, "rockprep run",
+                             static_cast<std::size_t>(w.packed.stats.particles));
+    sim::write_solid_file(staged.stage("solid.h5"), w.packed.solid, "rockprep run",
                           nlohmann::json{{"layout", a.layout},
                                          {"input", record["input"]},
                                          {"crop", a.crop},
@@ -707,51 +868,92 @@ int run_run(const RunArgs& a) {
                                          {"mirrored", permeability && !a.no_mirror},
                                          {"solid", "wall voxels and the empty voxels of the block"}}
                               .dump());
-    mesorock::write_text_atomically(
-        staged.stage("scene.toml"),
-        permeability ? permeability_scene_toml(periodic, sp) : flooding_scene_toml(flooding, sp));
+    mesorock::write_text_atomically(staged.stage("scene.toml"),
+                                    permeability
+                                        ? permeability_scene_toml(w.layout.periodic, w.scene)
+                                        : flooding_scene_toml(w.layout.flooding, w.scene));
     // The sets used, with the output (a few MB at most): the packing can be repeated from it.
     tiledb::TileDatabase used;
-    for (const tiledb::TileSet* s : {wall_tiles, fluid_tiles})
+    for (const tiledb::TileSet* s : {w.tiles.wall, w.tiles.fluid})
       if (s) used.put(*s);
     tiledb::write_tile_database(staged.stage("tiles.h5"), used);
-    if (!a.tiles_db.empty() && db.sets.size() > sets_before)
-      tiledb::write_tile_database(a.tiles_db, db);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!a.tiles_db.empty() && w.tiles.db.sets.size() > w.tiles.sets_before)
+      tiledb::write_tile_database(a.tiles_db, w.tiles.db);
+    const packing::PackStats& stats = w.packed.stats;
     record["memory"] = {{"peak_rss_bytes", peak_rss_bytes()},
                         {"particle_bytes", stats.particles * packing::kParticleBytes},
                         {"peak_pack_buffer_bytes", stats.peak_buffer_bytes}};
-    record["seconds"] = {{"pack", stats.seconds}, {"total", seconds}};
+    record["seconds"] = {{"pack", stats.seconds}, {"total", c.seconds()}};
     record["outputs"] =
         a.lammps ? nlohmann::json{"particles.h5", "particles.xmf", "particles.data", "solid.h5",
                                   "scene.toml",   "tiles.h5",      "run.json"}
                  : nlohmann::json{"particles.h5", "particles.xmf", "solid.h5",
                                   "scene.toml",   "tiles.h5",      "run.json"};
-    record["warnings"] = progress.warnings();
+    record["warnings"] = c.progress.warnings();
     write_json(staged.stage("run.json"), record, (out / "run.json").string());
     staged.commit();
   });
+}
 
-  // Summary.
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+// The closing lines on stdout: what was set up, its size, and the command that runs it.
+void print_summary(const RunContext& c, const RunLayout& l, const ParticleRoles& p,
+                   const PackedBlock& packed) {
+  const RunArgs& a = c.args;
+  const bool permeability = c.plan.permeability;
+  const packing::VoxelLayout& layout = l.active();
+  const auto& rv = layout.role_voxels;
+  const std::int64_t particles = packed.stats.particles;
+  const double seconds = c.seconds();
   std::ostringstream s;
-  s << "summary: " << layout.block_voxels << " block voxels (" << ext_voxels
+  s << "summary: " << layout.block_voxels << " block voxels (" << packed.box_voxels
     << (permeability ? a.no_mirror ? " in the periodic box" : " in the periodic box, mirrored"
                      : " with reservoirs and slabs")
     << "), " << layout.pore_voxels << " pore, "
     << rv[packing::kRoleOrganicWall] + rv[packing::kRoleInorganicWall]
-    << (permeability ? " wall in the box; " : " wall; ") << stats.particles << " particles:";
-  for (std::size_t t = 0; t < types.size(); ++t) s << " " << types[t] << " " << per_type[t];
-  s << "; particle arrays " << gib(static_cast<double>(stats.particles * packing::kParticleBytes))
+    << (permeability ? " wall in the box; " : " wall; ") << particles << " particles:";
+  for (std::size_t t = 0; t < p.types.size(); ++t)
+    s << " " << p.types[t] << " " << packed.per_type[t];
+  s << "; particle arrays " << gib(static_cast<double>(particles * packing::kParticleBytes))
     << ", peak memory " << gib(static_cast<double>(peak_rss_bytes())) << "; " << seconds << " s";
-  if (!a.quiet) std::cout << "rockprep: " << s.str() << "\n";
-  if (!a.quiet && permeability)
+  if (a.quiet) return;
+  const fs::path out(a.out);
+  std::cout << "rockprep: " << s.str() << "\n";
+  if (permeability)
     std::cout << "rockprep: next: rockflow sweep " << (out / "scene.toml").string()
               << " --out OUT --forces 0.01,0.02,0.03,0.04\n";
-  else if (!a.quiet)
+  else
     std::cout << "rockprep: next: rockflow run " << (out / "scene.toml").string() << " --out OUT\n";
+}
+
+// rockprep run, step by step in the order the work is done.
+int run_run(const RunArgs& a) {
+  const auto start = std::chrono::steady_clock::now();
+  const RunPlan plan = plan_run(a);
+  RunTiles tiles;
+  if (!a.tiles_db.empty() && fs::exists(a.tiles_db))
+    tiles.db = tiledb::read_tile_database(a.tiles_db);
+
+  if (a.generation.threads > 0) omp_set_num_threads(a.generation.threads);
+  Progress progress(a.quiet);
+  nlohmann::json record = provenance("run");
+  const RunContext c{a, plan, progress, record, start};
+  voxel::Volume labels = load_block(c);
+  const BlockScale block = scale_block(c, labels);
+  RunLayout layout = build_layout(c, block, std::move(labels));
+  report_pore_sizes(c, block);
+  find_tile_sets(c, block, tiles);
+
+  const ParticleRoles roles = particle_roles(c, layout, tiles);
+  check_estimate(c, block, layout, roles);
+  RunOutputs outputs = open_outputs(c, layout, roles);
+  const PackedBlock packed = pack_block(c, block, layout, roles, outputs);
+
+  const PermeabilitySceneParams scene = scene_params(c, block, roles, tiles);
+  record_parameters(c, block, scene);
+  record_tiles(c, tiles);
+  record_layout(c, layout, roles, packed);
+  write_outputs(c, outputs, RunProducts{packed, layout, scene, tiles});
+  print_summary(c, layout, roles, packed);
   return 0;
 }
 

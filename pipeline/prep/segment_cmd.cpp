@@ -57,7 +57,16 @@ std::vector<voxel::Phase> class_phases(const std::string& names, int classes) {
   return phases;
 }
 
-int run_segment(const SegmentArgs& a) {
+// Everything the user typed, parsed and checked before the (possibly long) load.
+struct SegmentPlan {
+  voxel::LabelGridType label_grid_type;
+  voxel::LabelMap label_map;
+  std::vector<double> thresholds;  // --thresholds; --otsu finds them after the load
+  std::vector<voxel::Phase> phases;
+  std::optional<double> exclude_value;
+};
+
+SegmentPlan plan_segment(const SegmentArgs& a) {
   const int modes = (!a.thresholds.empty()) + (a.otsu > 0) + (!a.labels.empty());
   if (modes != 1) {
     throw ConfigError("segment: give exactly one of --thresholds, --otsu or --labels");
@@ -68,7 +77,8 @@ int run_segment(const SegmentArgs& a) {
   if (!a.labels.empty() && !a.phases.empty()) {
     throw ConfigError("segment: --phases is for --thresholds/--otsu; --labels names its phases");
   }
-  const voxel::LabelGridType label_grid_type = voxel::parse_label_grid_type(a.label_grid);
+  SegmentPlan plan;
+  plan.label_grid_type = voxel::parse_label_grid_type(a.label_grid);
   const fs::path out(a.out);
   if (!out.parent_path().empty() && !fs::is_directory(out.parent_path())) {
     throw IoError(a.out + ": parent folder does not exist");
@@ -76,30 +86,35 @@ int run_segment(const SegmentArgs& a) {
   if (fs::exists(out) && !fs::is_directory(out))
     throw IoError(a.out + ": exists and is not a folder");
   if (!a.truth.empty() && !fs::exists(a.truth)) throw IoError(a.truth + ": no such file");
-  // Parse everything the user typed before the (possibly long) load.
-  const voxel::LabelMap label_map =
-      a.labels.empty() ? voxel::LabelMap{} : voxel::LabelMap::parse(a.labels);
-  std::vector<double> thresholds =
+  plan.label_map = a.labels.empty() ? voxel::LabelMap{} : voxel::LabelMap::parse(a.labels);
+  plan.thresholds =
       a.thresholds.empty() ? std::vector<double>{} : parse_numbers(a.thresholds, "--thresholds");
-  const int classes = a.otsu > 0 ? a.otsu : static_cast<int>(thresholds.size()) + 1;
-  std::vector<voxel::Phase> phases;
-  if (a.labels.empty()) phases = class_phases(a.phases, classes);
-  std::optional<double> exclude_value;
+  const int classes = a.otsu > 0 ? a.otsu : static_cast<int>(plan.thresholds.size()) + 1;
+  if (a.labels.empty()) plan.phases = class_phases(a.phases, classes);
   if (!a.exclude_value.empty()) {
     const std::vector<double> v = parse_numbers(a.exclude_value, "--exclude-value");
     if (v.size() != 1) throw ConfigError("--exclude-value takes one number");
-    exclude_value = v[0];
+    plan.exclude_value = v[0];
   }
+  return plan;
+}
 
-  Progress progress(a.quiet);
-  voxel::ReadReport report;
-  voxel::Volume volume = load_input(a.input, progress, &report);
-  nlohmann::json record = provenance("segment");
-  record["input"] = input_record(a.input, volume, report);
-  const voxel::Shape shape = volume.shape();
-  const voxel::Spacing spacing = volume.spacing();
-  const std::int64_t n = volume.voxels();
+// The loaded stack and what the steps after the load share: the progress, the record and the
+// segmentation's parameters (params, recorded as "parameters").
+struct SegmentContext {
+  const SegmentArgs& args;
+  SegmentPlan& plan;
+  Progress& progress;
+  nlohmann::json& record;
+  nlohmann::json params;
+};
 
+// Runs the filters and finds the voxels that are outside: the field of view (from the filters or
+// the input's sidecar), --exclude-value, and non-finite values.
+voxel::Exclusion filter_and_exclude(SegmentContext& c, voxel::Volume& volume,
+                                    const voxel::ReadReport& report) {
+  const SegmentArgs& a = c.args;
+  Progress& progress = c.progress;
   std::optional<voxel::FieldOfView> fov;
   nlohmann::json filters =
       about_input(a.input.path, [&] { return apply_filters(a.filters, volume, progress, &fov); });
@@ -114,21 +129,32 @@ int run_segment(const SegmentArgs& a) {
   }
   voxel::Exclusion exclusion;
   exclusion.field_of_view = fov;
-  exclusion.value = exclude_value;
-  nlohmann::json params = filters;
-  if (exclude_value) params["exclude_value"] = *exclude_value;
+  exclusion.value = c.plan.exclude_value;
+  c.params = filters;
+  if (c.plan.exclude_value) c.params["exclude_value"] = *c.plan.exclude_value;
   // NaN and infinite voxels are no data: labelled outside (load_input said so for the input; a
   // Gaussian or median filter spreads a NaN to its neighbours, so they are counted again here).
   const voxel::NonFiniteCounts non_finite = voxel::count_non_finite(volume);
   if (non_finite.total() > 0) {
-    params["non_finite_voxels_labelled_outside"] = non_finite.total();
+    c.params["non_finite_voxels_labelled_outside"] = non_finite.total();
     if (non_finite.total() != report.non_finite.total())
       progress.warn(a.input.path + ": after the filters, " +
                     voxel::non_finite_note(non_finite, volume.voxels()) + " (the input had " +
                     std::to_string(report.non_finite.total()) + ")");
   }
+  return exclusion;
+}
 
-  voxel::Volume labels;
+// The stack -> phase labels: by thresholds (given, or multi-Otsu's) or by the label map; then,
+// with --organic-pores, the organic-hosted pores relabelled.
+voxel::Volume label_phases(SegmentContext& c, voxel::Volume volume,
+                           const voxel::Exclusion& exclusion) {
+  const SegmentArgs& a = c.args;
+  Progress& progress = c.progress;
+  nlohmann::json& params = c.params;
+  std::vector<double>& thresholds = c.plan.thresholds;
+  const voxel::Spacing spacing = volume.spacing();
+  const std::int64_t n = volume.voxels();
   if (a.otsu > 0) {
     const voxel::Histogram histogram = progress.stage("histogram", n, [&] {
       return about_input(a.input.path,
@@ -147,18 +173,20 @@ int run_segment(const SegmentArgs& a) {
   } else if (!a.thresholds.empty()) {
     params["method"] = "thresholds";
   }
+  voxel::Volume labels;
   if (a.labels.empty()) {
     params["thresholds"] = thresholds;
     nlohmann::json names = nlohmann::json::array();
-    for (voxel::Phase p : phases) names.push_back(voxel::phase_name(p));
+    for (voxel::Phase p : c.plan.phases) names.push_back(voxel::phase_name(p));
     params["class_phases"] = names;
     params["class_rule"] = "class c holds values v with thresholds[c-1] <= v < thresholds[c]";
-    voxel::ThresholdSegmentation seg{thresholds, phases, exclusion};
+    voxel::ThresholdSegmentation seg{thresholds, c.plan.phases, exclusion};
     labels = progress.stage("label by thresholds", n, [&] {
       return about_input(a.input.path,
                          [&] { return voxel::segment_by_thresholds(std::move(volume), seg); });
     });
   } else {
+    const voxel::LabelMap& label_map = c.plan.label_map;
     params["method"] = "label-map";
     params["label_map"] = label_map.str();
     labels = progress.stage("label by map " + label_map.str(), n, [&] {
@@ -174,7 +202,14 @@ int run_segment(const SegmentArgs& a) {
     progress.note("organic_pore: " + std::to_string(moved) + " pore voxels are organic-hosted");
     params["organic_pores"] = true;
   }
+  return labels;
+}
 
+// The phase fractions (a progress line and the record's table), and with --truth the agreement
+// with known labels.
+void record_phases(SegmentContext& c, const voxel::Volume& labels) {
+  const SegmentArgs& a = c.args;
+  Progress& progress = c.progress;
   const voxel::PhaseCounts counts = voxel::count_phases(labels);
   const std::string warning = voxel::porosity_warning(counts);
   if (!warning.empty()) progress.warn(a.input.path + ": " + warning);
@@ -206,52 +241,57 @@ int run_segment(const SegmentArgs& a) {
     s.precision(5);
     s << "agreement with " << a.truth << ": " << agreement * 100 << "% of voxels";
     progress.note(s.str());
-    record["truth"] = {
+    c.record["truth"] = {
         {"path", a.truth}, {"agreement", agreement}, {"pores_merged", !a.organic_pores}};
   }
+  c.record["phases"] = phase_table;
+  c.record["porosity"] = counts.porosity();
+  c.record["counted_voxels"] = counts.counted();
+  c.record["outside_voxels"] = counts.voxels[0];
+}
 
+// The OpenVDB grids: the phase masks go to phases.vdb (standard grid types only), the label grid
+// (when there is one) to labels.vdb.
+struct PhaseGrids {
+  openvdb::GridPtrVec masks;
+  openvdb::GridPtrVec labels;
+};
+
+PhaseGrids build_grids(SegmentContext& c, const voxel::Volume& labels) {
   voxel::PhaseGridOptions grid_options;
-  grid_options.label_grid = a.no_label_grid ? voxel::LabelGridType::kNone : label_grid_type;
-  openvdb::GridPtrVec grids = progress.stage("build OpenVDB phase grids", n, [&] {
-    return voxel::build_phase_grids(labels, grid_options);
-  });
-  // The masks go to phases.vdb (standard grid types only), the label grid to labels.vdb.
-  openvdb::GridPtrVec label_grids;
+  grid_options.label_grid =
+      c.args.no_label_grid ? voxel::LabelGridType::kNone : c.plan.label_grid_type;
+  PhaseGrids grids;
+  grids.masks = c.progress.stage("build OpenVDB phase grids", labels.voxels(),
+                                 [&] { return voxel::build_phase_grids(labels, grid_options); });
   if (grid_options.label_grid != voxel::LabelGridType::kNone) {
-    label_grids.push_back(grids.back());
-    grids.pop_back();
+    grids.labels.push_back(grids.masks.back());
+    grids.masks.pop_back();
   }
-  params["label_grid"] = voxel::label_grid_type_name(grid_options.label_grid);
+  c.params["label_grid"] = voxel::label_grid_type_name(grid_options.label_grid);
   std::size_t grid_bytes = 0;
-  for (const auto& grid : grids) grid_bytes += grid->memUsage();
-  for (const auto& grid : label_grids) grid_bytes += grid->memUsage();
-  {
-    std::ostringstream s;
-    s.precision(3);
-    s << grids.size() + label_grids.size() << " grids, " << double(grid_bytes) / double(1 << 20)
-      << " MiB in memory";
-    progress.note(s.str());
-  }
+  for (const auto& grid : grids.masks) grid_bytes += grid->memUsage();
+  for (const auto& grid : grids.labels) grid_bytes += grid->memUsage();
+  std::ostringstream s;
+  s.precision(3);
+  s << grids.masks.size() + grids.labels.size() << " grids, "
+    << double(grid_bytes) / double(1 << 20) << " MiB in memory";
+  c.progress.note(s.str());
+  return grids;
+}
 
-  record["parameters"] = params;
-  record["shape_zyx"] = {shape.nz, shape.ny, shape.nx};
-  record["spacing_zyx"] = {spacing.dz, spacing.dy, spacing.dx};
-  record["unit"] = spacing.unit;
-  record["phases"] = phase_table;
-  record["porosity"] = counts.porosity();
-  record["counted_voxels"] = counts.counted();
-  record["outside_voxels"] = counts.voxels[0];
-  record["outputs"] = {"phases.vdb", "labels.mhd", "labels.raw", "labels.json", "segment.json"};
-  if (!label_grids.empty()) record["outputs"].push_back("labels.vdb");
-  record["warnings"] = progress.warnings();
-
-  progress.stage("write " + a.out, n, [&] {
+// The output folder's files, which take their names together.
+void write_segmentation(SegmentContext& c, const voxel::Volume& labels, const PhaseGrids& grids) {
+  const nlohmann::json& record = c.record;
+  const fs::path out(c.args.out);
+  c.progress.stage("write " + c.args.out, labels.voxels(), [&] {
     voxel::StagedOutputs outputs = voxel::StagedOutputs::in_directory(out);
     const std::map<std::string, std::string> vdb_meta = {
         {"mesorock_version", kVersion}, {"git_commit", kGitCommit}, {"provenance", record.dump()}};
-    voxel::write_vdb(outputs.stage("phases.vdb"), grids, vdb_meta, (out / "phases.vdb").string());
-    if (!label_grids.empty()) {
-      voxel::write_vdb(outputs.stage("labels.vdb"), label_grids, vdb_meta,
+    voxel::write_vdb(outputs.stage("phases.vdb"), grids.masks, vdb_meta,
+                     (out / "phases.vdb").string());
+    if (!grids.labels.empty()) {
+      voxel::write_vdb(outputs.stage("labels.vdb"), grids.labels, vdb_meta,
                        (out / "labels.vdb").string());
     }
     nlohmann::json labels_record = provenance("segment");
@@ -265,6 +305,33 @@ int run_segment(const SegmentArgs& a) {
     }
     outputs.commit();
   });
+}
+
+int run_segment(const SegmentArgs& a) {
+  SegmentPlan plan = plan_segment(a);
+
+  Progress progress(a.quiet);
+  voxel::ReadReport report;
+  voxel::Volume volume = load_input(a.input, progress, &report);
+  nlohmann::json record = provenance("segment");
+  record["input"] = input_record(a.input, volume, report);
+  const voxel::Shape shape = volume.shape();
+  const voxel::Spacing spacing = volume.spacing();
+
+  SegmentContext c{a, plan, progress, record, nlohmann::json()};
+  const voxel::Exclusion exclusion = filter_and_exclude(c, volume, report);
+  const voxel::Volume labels = label_phases(c, std::move(volume), exclusion);
+  record_phases(c, labels);
+  const PhaseGrids grids = build_grids(c, labels);
+
+  record["parameters"] = c.params;
+  record["shape_zyx"] = {shape.nz, shape.ny, shape.nx};
+  record["spacing_zyx"] = {spacing.dz, spacing.dy, spacing.dx};
+  record["unit"] = spacing.unit;
+  record["outputs"] = {"phases.vdb", "labels.mhd", "labels.raw", "labels.json", "segment.json"};
+  if (!grids.labels.empty()) record["outputs"].push_back("labels.vdb");
+  record["warnings"] = progress.warnings();
+  write_segmentation(c, labels, grids);
   return 0;
 }
 
