@@ -87,8 +87,7 @@ class ThermoOutput final : public RunOutput {
       throw NumericalError("step " + std::to_string(at.step) +
                            ": temperature or pressure is not finite (dt = " +
                            std::to_string(at.stage->dt) + " may be too large)");
-    file_ << at.step << "," << at.time << "," << at.stage->name << "," << T << ","
-          << st.pressure();
+    file_ << at.step << "," << at.time << "," << at.stage->name << "," << T << "," << st.pressure();
     for (double v : st.total()) file_ << "," << v;
     file_ << "," << p[0] << "," << p[1] << "," << p[2];
     if (run_.scene.model.solid.mask) {  // the leak invariant (throws past its limit)
@@ -239,8 +238,8 @@ class InjectionOutput final : public ThermoRowOutput {
     if (!file_.is_open()) return;
     for (size_t k = 0; k < counts.size(); ++k)
       file_ << at.step << "," << at.time << "," << at.stage->name << "," << k + 1 << ","
-            << type_name(run_.scene.model.injections[k].inject_type) << ","
-            << counts[k].injected << "," << counts[k].missed << "\n";
+            << type_name(run_.scene.model.injections[k].inject_type) << "," << counts[k].injected
+            << "," << counts[k].missed << "\n";
   }
   std::vector<double> injected_before_, missed_before_;
 };
@@ -438,8 +437,7 @@ class RegionsOutput final : public RunOutput {
     nlohmann::json rj = nlohmann::json::object();
     for (const auto& r : regions_) rj[r.spec->name] = r.last;
     summary["regions"] = {{"file", "regions.csv"}, {"last_sample", rj}};
-    if (any_saturation_)
-      summary["regions"]["saturation_file"] = "saturation.csv";
+    if (any_saturation_) summary["regions"]["saturation_file"] = "saturation.csv";
     if (any_pressure_) summary["regions"]["pressure_file"] = "region_pressure.csv";
   }
 
@@ -536,8 +534,8 @@ void RegionsOutput::sample_region(RegionRun& r, const RunPoint& at) {
   }
   if (r.saturation_type >= 0) {
     const double sat = counted > 0 ? of_type / counted : 0.0;
-    saturation_ << at.step << "," << at.time << "," << at.stage->name << "," << r.spec->name
-                << "," << sat << "," << 1.0 - sat << "," << counted << "\n";
+    saturation_ << at.step << "," << at.time << "," << at.stage->name << "," << r.spec->name << ","
+                << sat << "," << 1.0 - sat << "," << counted << "\n";
     r.last["saturation"] = sat;
     r.last["recovery"] = 1.0 - sat;
   }
@@ -554,8 +552,7 @@ std::vector<std::unique_ptr<RunOutput>> make_scene_outputs(RunContext& run) {
   if (run.sim.ranks() > 1) out.push_back(std::make_unique<BalanceOutput>(run));
   if (scene.output.snapshot_every > 0) out.push_back(std::make_unique<SnapshotOutput>(run));
   for (const auto& p : scene.output.profiles) out.push_back(std::make_unique<BinnedOutput>(run, p));
-  if (scene.output.fields)
-    out.push_back(std::make_unique<BinnedOutput>(run, *scene.output.fields));
+  if (scene.output.fields) out.push_back(std::make_unique<BinnedOutput>(run, *scene.output.fields));
   if (!scene.output.regions.empty()) out.push_back(std::make_unique<RegionsOutput>(run));
   if (scene.output.final_snapshot) out.push_back(std::make_unique<FinalSnapshotOutput>(run));
   return out;

@@ -69,7 +69,8 @@ Runner::Runner(const Scene& scene, sim::Simulation& sim, const RunOptions& optio
   progress_ = options.progress && context_.root;
   std::error_code ec;
   if (context_.root) fs::create_directories(options.out_dir, ec);
-  if (ec) throw IoError(options.out_dir.string() + ": cannot create output folder: " + ec.message());
+  if (ec)
+    throw IoError(options.out_dir.string() + ": cannot create output folder: " + ec.message());
   if (progress_)
     std::cerr << "rockflow: " << scene.path.string() << ": " << sim.size() << " particles, "
               << sim.pass_name() << ", backend " << sim.backend_name() << ", "
@@ -100,7 +101,8 @@ void Runner::run() {
   // Steps of a stage begin at this step (a resumed run skips what was done).
   std::uint64_t stage_begin = 0;
   for (const auto& stage : scene_.stages) {
-    run_stage(stage, start_step > stage_begin ? std::min(stage.steps, start_step - stage_begin) : 0);
+    run_stage(stage,
+              start_step > stage_begin ? std::min(stage.steps, start_step - stage_begin) : 0);
     total_steps_ += stage.steps;
     stage_begin += stage.steps;
     stage_time_ += static_cast<double>(stage.steps) * stage.dt;
@@ -199,8 +201,8 @@ void Runner::report_progress(const StageSpec& stage, std::uint64_t done, std::ui
   const std::uint64_t tenth = std::max<std::uint64_t>(1, stage.steps / 10);
   if ((tty && done % progress_every == 0) || done == stage.steps ||
       (done / tenth) != ((done - chunk) / tenth))
-    std::cerr << (tty ? "\r" : "") << "  stage " << stage.name << ": " << done << "/"
-              << stage.steps << " steps, " << std::setprecision(3) << rate << " MPS/s, ETA "
+    std::cerr << (tty ? "\r" : "") << "  stage " << stage.name << ": " << done << "/" << stage.steps
+              << " steps, " << std::setprecision(3) << rate << " MPS/s, ETA "
               << std::setprecision(3) << eta << " s" << (tty ? "   " : "\n") << std::flush;
 }
 

@@ -39,11 +39,11 @@ struct RunContext {
   const Scene& scene;
   sim::Simulation& sim;
   std::filesystem::path out_dir;
-  bool root = true;                   // rank 0 of a decomposed run: the one that writes files
+  bool root = true;                    // rank 0 of a decomposed run: the one that writes files
   const RunRecord* resumed = nullptr;  // the checkpoint's record when the run resumed
-  StagedOutputs* staged = nullptr;    // the run's files, which take their final names together
-  std::string banner;                 // "# mesorock VERSION (COMMIT), scene FILE"
-  nlohmann::json provenance;          // scene, seed, backend, pass
+  StagedOutputs* staged = nullptr;     // the run's files, which take their final names together
+  std::string banner;                  // "# mesorock VERSION (COMMIT), scene FILE"
+  nlohmann::json provenance;           // scene, seed, backend, pass
 };
 
 // A CSV series of the run (thermo.csv, regions.csv, ...): it grows under its staged name with
@@ -132,9 +132,9 @@ class Runner {
   std::chrono::steady_clock::time_point t_start_, t_run_;
   double earlier_run_seconds_ = 0;  // spent before the checkpoint this run resumed from
   double time_ = 0;
-  double stage_time_ = 0;            // simulated time at the start of the current stage
-  std::uint64_t total_steps_ = 0;    // steps of the stages run through (all of each)
-  double seconds_per_step_ = 0;      // measured on the last chunk of steps
+  double stage_time_ = 0;          // simulated time at the start of the current stage
+  std::uint64_t total_steps_ = 0;  // steps of the stages run through (all of each)
+  double seconds_per_step_ = 0;    // measured on the last chunk of steps
 };
 
 }  // namespace mesorock::pipeline
