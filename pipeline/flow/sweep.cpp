@@ -285,13 +285,9 @@ std::optional<double> density_from_scene(const Scene& scene, std::uint32_t drive
   return found;
 }
 
-}  // namespace
-
-nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
-  const std::string where = scene.path.string() + ": sweep";
-  if (scene.stages.empty()) throw ConfigError(where + ": the scene has no [[run]] stage");
+// The types the sweep drives: --types, else the scene's body-force types, else every mobile one.
+std::uint32_t driven_types_of(const Scene& scene, const SweepCommand& c, const std::string& where) {
   const sim::Model& model = scene.model;
-  // Driven types and the flow axis.
   std::uint32_t driven = 0;
   if (!c.types.empty()) {
     for (const auto& name : c.types) {
@@ -308,18 +304,340 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   }
   if (driven == 0)
     throw ConfigError(where + ": no driven type (every type is frozen or a rigid slab)");
+  return driven;
+}
+
+// The flow axis: --axis, else the axis of the driven types' largest body force.
+int flow_axis_of(const Scene& scene, const SweepCommand& c, std::uint32_t driven) {
+  if (!c.axis.empty()) return parse_axis(c.axis);
   int axis = 0;
-  if (!c.axis.empty()) {
-    axis = parse_axis(c.axis);
-  } else {
-    double best = 0;
-    for (int t = 0; t < model.ntypes(); ++t)
-      if ((driven >> t) & 1u)
-        for (int a = 0; a < 3; ++a) {
-          const double v = std::abs(model.types[static_cast<size_t>(t)].body_force[a]);
-          if (v > best) best = v, axis = a;
-        }
+  double best = 0;
+  for (int t = 0; t < scene.model.ntypes(); ++t)
+    if ((driven >> t) & 1u)
+      for (int a = 0; a < 3; ++a) {
+        const double v = std::abs(scene.model.types[static_cast<size_t>(t)].body_force[a]);
+        if (v > best) best = v, axis = a;
+      }
+  return axis;
+}
+
+// The viscosity that turns the flux into a permeability: given, or calibrated (cached) for the
+// driven fluid. Returns its record for sweep.json.
+nlohmann::json sweep_viscosity(const Scene& scene, const SweepCommand& c, const std::string& where,
+                               SweepOptions& o, ProgressMeter& meter) {
+  if (c.viscosity) {
+    o.viscosity = *c.viscosity;
+    o.viscosity_error = c.viscosity_error.value_or(0.0);
+    return {{"value", o.viscosity}, {"error", o.viscosity_error}, {"source", "given"}};
   }
+  const sim::Model& model = scene.model;
+  const std::uint32_t driven = o.driven_types;
+  int first = -1;
+  for (int t = 0; t < model.ntypes() && first < 0; ++t)
+    if ((driven >> t) & 1u) first = t;
+  const sim::PairSpec p = model.pair(first, first);
+  for (int a = 0; a < model.ntypes(); ++a)
+    for (int b = 0; b < model.ntypes(); ++b)
+      if (((driven >> a) & 1u) && ((driven >> b) & 1u)) {
+        const sim::PairSpec& q = model.pair(a, b);
+        if (q.A != p.A || q.B != p.B || q.gamma != p.gamma)
+          throw ConfigError(where +
+                            ": the driven types are not one fluid (their pair parameters "
+                            "differ), so no single viscosity calibration fits: give "
+                            "--viscosity");
+      }
+  FluidSpec fluid;
+  fluid.conservative = model.conservative;
+  fluid.density_kernel = model.density_kernel;
+  fluid.A = p.A;
+  fluid.B = p.B;
+  fluid.gamma = p.gamma;
+  fluid.rd = model.rd;
+  fluid.kBT = model.kBT;
+  fluid.lambda = model.lambda;
+  fluid.density = o.fluid_density;
+  fluid.dt = o.dt;
+  fluid.precision = model.precision;
+  if (!model.thermostat || !(p.gamma > 0))
+    throw ConfigError(where + ": the viscosity calibration needs the thermostat: give --viscosity");
+  const fs::path cache = c.viscosity_cache.empty() ? default_viscosity_cache() : c.viscosity_cache;
+  const CalibratedViscosity v =
+      calibrated_viscosity(fluid, parse_calibration_size(c.calibration), cache, o.sim, &meter);
+  o.viscosity = v.value;
+  o.viscosity_error = v.error;
+  return {{"value", v.value},
+          {"error", v.error},
+          {"source", v.source},
+          {"cache_file", v.cache_file.string()},
+          {"calibration", v.record}};
+}
+
+// Permeabilities in rc^2 and, with [units], in nm^2 and mD.
+struct PermeabilityUnits {
+  std::optional<sim::UnitSystem> units;
+  double nm2 = 0, mD = 0;
+  explicit PermeabilityUnits(const Scene& scene) {
+    if (!(scene.units.nm_per_rc > 0)) return;
+    units = unit_system_of(scene.units);
+    nm2 = scene.units.nm_per_rc * scene.units.nm_per_rc;
+    mD = units->permeability_m2(1.0) / kMillidarcyM2;
+  }
+  nlohmann::json json(double k, double e) const {
+    nlohmann::json j = {{"rc2", k}, {"rc2_error", e}};
+    if (units) {
+      j["nm2"] = k * nm2;
+      j["nm2_error"] = e * nm2;
+      j["mD"] = k * mD;
+      j["mD_error"] = e * mD;
+    }
+    return j;
+  }
+};
+
+// What the sweep ran on and measured, for its outputs.
+struct SweepRecord {
+  const Scene& scene;
+  const SweepOptions& o;
+  const std::vector<SweepPoint>& points;
+  const SweepFits& fits;
+  PermeabilityUnits k;
+};
+
+// sweep.csv (a row per point) and sweep_blocks.csv (the flux of every block).
+void write_sweep_tables(StagedOutputs& outputs, const fs::path& out_dir, const SweepRecord& r) {
+  const SweepOptions& o = r.o;
+  const bool solid = r.scene.model.solid.mask != nullptr;
+  std::ostringstream s;
+  s << std::setprecision(10);
+  s << "# mesorock " << kVersion << " (" << kGitCommit << "), rockflow sweep of "
+    << r.scene.path.string() << "\n";
+  s << "# reduced units (rc = m = kBT = 1): g per particle, G = n_f g with n_f = "
+    << o.fluid_density << ", J = sum v / V_total, q = J / n_f (Darcy velocity), k = mu q / G "
+    << "with mu = " << o.viscosity << " +- " << o.viscosity_error
+    << "; errors one standard error; k_nm2 and k_mD need [units] nm_per_rc"
+    << (r.k.units ? " (" + fmt(r.scene.units.nm_per_rc) + " nm per rc)"
+                  : std::string(" (not given)"))
+    << "\n";
+  s << "point,force_g,gradient_G,flux_J,flux_J_error,darcy_velocity_q,darcy_velocity_q_error,"
+       "k_rc2,k_rc2_error,k_nm2,k_nm2_error,k_mD,k_mD_error,steady,steady_after_steps,steps,"
+       "temperature,drift,drift_error,restarts"
+    << (solid ? ",solid_inside_max,solid_max_depth" : "") << "\n";
+  for (size_t k = 0; k < r.points.size(); ++k) {
+    const SweepPoint& p = r.points[k];
+    s << k + 1 << "," << p.force << "," << p.gradient << "," << p.flux << "," << p.flux_error << ","
+      << p.darcy_velocity << "," << p.darcy_velocity_error << "," << p.permeability << ","
+      << p.permeability_error << ",";
+    if (r.k.units)
+      s << p.permeability * r.k.nm2 << "," << p.permeability_error * r.k.nm2 << ","
+        << p.permeability * r.k.mD << "," << p.permeability_error * r.k.mD;
+    else
+      s << ",,,";
+    s << "," << (p.steady ? 1 : 0) << "," << p.steady_after << "," << p.steps << ","
+      << p.temperature << "," << p.drift << "," << p.drift_error << "," << p.restarts;
+    if (solid) s << "," << p.leaks.max_inside << "," << p.leaks.max_depth;
+    s << "\n";
+  }
+  outputs.write_text(out_dir / "sweep.csv", s.str());
+  std::ostringstream b;
+  b << std::setprecision(10);
+  b << "# flux J = sum v / V_total of each block of " << o.block_steps
+    << " steps after the warm-up of " << o.warmup_steps << " steps\n";
+  b << "point,force_g,block,steps,flux_J\n";
+  for (size_t k = 0; k < r.points.size(); ++k)
+    for (size_t j = 0; j < r.points[k].block_flux.size(); ++j)
+      b << k + 1 << "," << r.points[k].force << "," << j + 1 << ","
+        << o.warmup_steps + (j + 1) * o.block_steps << "," << r.points[k].block_flux[j] << "\n";
+  outputs.write_text(out_dir / "sweep_blocks.csv", b.str());
+}
+
+nlohmann::json points_json(const SweepRecord& r) {
+  nlohmann::json pj = nlohmann::json::array();
+  for (const auto& p : r.points)
+    pj.push_back({{"force_g", p.force},
+                  {"gradient_G", p.gradient},
+                  {"flux_J", p.flux},
+                  {"flux_J_error", p.flux_error},
+                  {"darcy_velocity_q", p.darcy_velocity},
+                  {"darcy_velocity_q_error", p.darcy_velocity_error},
+                  {"permeability", r.k.json(p.permeability, p.permeability_error)},
+                  {"steady", p.steady},
+                  {"steady_after_steps", p.steady_after},
+                  {"steps", p.steps},
+                  {"temperature", p.temperature},
+                  {"drift", p.drift},
+                  {"drift_error", p.drift_error},
+                  {"drift_note",
+                   "change of J across the measured blocks relative to J (least-squares trend)"},
+                  {"restarts", p.restarts}});
+  if (r.scene.model.solid.mask)
+    for (size_t k = 0; k < r.points.size(); ++k)
+      pj[k]["solid_invariant"] = r.points[k].leaks.json();
+  return pj;
+}
+
+// The quadratic fit's relative departure from the Darcy line at the largest gradient, and its
+// error (0, 0 without the quadratic fit).
+std::pair<double, double> quadratic_departure(const SweepRecord& r) {
+  if (!r.fits.quadratic) return {0.0, 0.0};
+  const double Gmax = r.points.back().gradient;
+  return {r.fits.quadratic->departure(Gmax), r.fits.quadratic->departure_error(Gmax)};
+}
+
+nlohmann::json fits_json(const SweepRecord& r) {
+  const SweepFits& fits = r.fits;
+  nlohmann::json j = {
+      {"darcy",
+       {{"model", "q = (k / mu) G"},
+        {"slope", fits.darcy.slope},
+        {"slope_error", fits.darcy.slope_error},
+        {"permeability", r.k.json(fits.k, fits.k_error)},
+        {"chi2", fits.darcy.chi2},
+        {"dof", fits.darcy.dof},
+        {"chi2_99", chi2_99(fits.darcy.dof)},
+        {"consistent", fits.darcy.dof < 1 || fits.darcy.chi2 <= chi2_99(fits.darcy.dof)}}}};
+  if (fits.line)
+    j["line"] = {{"model", "q = a + b G"},
+                 {"intercept", fits.line->intercept},
+                 {"intercept_error", fits.line->intercept_error},
+                 {"slope", fits.line->slope},
+                 {"slope_error", fits.line->slope_error},
+                 {"chi2", fits.line->chi2},
+                 {"dof", fits.line->dof}};
+  if (fits.quadratic) {
+    const QuadraticFit& qf = *fits.quadratic;
+    const auto [deviation, deviation_error] = quadratic_departure(r);
+    const double mu = r.o.viscosity;
+    j["quadratic"] = {
+        {"model", "q = c1 G + c2 G^2"},
+        {"c1", qf.c1},
+        {"c1_error", qf.c1_error},
+        {"c2", qf.c2},
+        {"c2_error", qf.c2_error},
+        {"covariance", qf.covariance},
+        {"chi2", qf.chi2},
+        {"dof", qf.dof},
+        {"permeability_at_zero_gradient", r.k.json(mu * qf.c1, mu * qf.c1_error)},
+        {"forchheimer_beta", -qf.c2 / (qf.c1 * qf.c1 * qf.c1)},
+        {"forchheimer_note",
+         "to first order G = q / c1 + beta q^2 with beta = -c2 / c1^3 (reduced units)"},
+        {"deviation_at_largest_gradient", deviation},
+        {"deviation_error", deviation_error},
+        {"deviation_significant", std::abs(deviation) > 2 * deviation_error},
+        {"deviation_note",
+         "c2 G_max / c1: relative departure of the flow rate from the Darcy line at the "
+         "largest gradient; significant when beyond two standard errors"}};
+  }
+  return j;
+}
+
+nlohmann::json sweep_summary(const SweepRecord& r, std::size_t fluid_count,
+                             const nlohmann::json& viscosity, const ProgressMeter& meter) {
+  const SweepOptions& o = r.o;
+  const sim::Model& model = r.scene.model;
+  nlohmann::json summary = {
+      {"mesorock_version", kVersion},
+      {"git_commit", kGitCommit},
+      {"command", "rockflow sweep"},
+      {"scene_file", r.scene.path.string()},
+      {"scene_name", r.scene.name},
+      {"backend", sim::to_string(o.sim.backend)},
+      {"precision", sim::to_string(model.precision)},
+      {"flow_axis", std::string(1, "xyz"[o.axis])},
+      {"driven_types", nlohmann::json::array()},
+      {"fluid_particles", fluid_count},
+      {"fluid_density", o.fluid_density},
+      {"porosity_estimate",
+       static_cast<double>(fluid_count) / (o.fluid_density * r.scene.box.volume())},
+      {"viscosity", viscosity},
+      {"definitions",
+       "G = n_f g (pressure-gradient equivalent of the body force), J = sum v / V_total, "
+       "q = J / n_f (Darcy velocity), k = mu q / G; docs/permeability.md"},
+      {"steady_state",
+       {{"warmup_steps", o.warmup_steps},
+        {"block_steps", o.block_steps},
+        {"sample_every", o.sample_every},
+        {"window_blocks", o.window},
+        {"tolerance", o.tolerance},
+        {"measure_blocks", o.measure_blocks},
+        {"max_steps", o.max_steps},
+        {"chained", o.chain},
+        {"rule",
+         "steady when the mean flux of the last window blocks agrees with the window before "
+         "within the tolerance (relative) or two combined standard errors; then measure_blocks "
+         "blocks give the flux and its standard error, unless their least-squares trend is "
+         "beyond Student's t_99 standard errors (a drifting flux: the point waits again)"}}},
+      {"dt", o.dt},
+      {"prepared_with",
+       [&] {
+         nlohmann::json j = nlohmann::json::array();
+         for (const auto& [steps, dt] : o.prepare) j.push_back({{"steps", steps}, {"dt", dt}});
+         return j;
+       }()},
+      {"solid", solid_json(model.solid,
+                           [&] {
+                             LeakRecord all;
+                             for (const SweepPoint& p : r.points) all.merge(p.leaks);
+                             return all;
+                           }())},
+      {"points", points_json(r)},
+      {"fits", fits_json(r)},
+      {"units", units_json(r.k.units)},
+      {"particle_steps", meter.work()},
+      {"wall_seconds", meter.seconds()},
+      {"outputs", {"sweep.csv", "sweep_blocks.csv", "sweep.json", "sweep.png"}},
+      {"scene", r.scene.source_text}};
+  for (int t = 0; t < model.ntypes(); ++t)
+    if ((o.driven_types >> t) & 1u)
+      summary["driven_types"].push_back(model.types[static_cast<size_t>(t)].name);
+  return summary;
+}
+
+// sweep.png: q against G with error bars, the Darcy line and the quadratic.
+void write_sweep_plot(StagedOutputs& outputs, const fs::path& out_dir, const SweepRecord& r) {
+  plot::Plot pl;
+  pl.title = "Darcy velocity vs pressure gradient (" + r.scene.name + ")";
+  pl.x_label = "G = n g  (kBT / rc^4)";
+  pl.y_label = "q  (rc / tau)";
+  pl.style = plot::PlotStyle::kPoints;
+  pl.label = "measured (1 s.e.)";
+  pl.x_from_zero = true;
+  for (const auto& p : r.points) {
+    pl.x.push_back(p.gradient);
+    pl.y.push_back(p.darcy_velocity);
+    pl.y_error.push_back(p.darcy_velocity_error);
+  }
+  const double Gmax = r.points.back().gradient * 1.05;
+  plot::Series darcy;
+  std::string k_text = "Darcy: k = " + fmt(r.fits.k, 3) + " rc^2";
+  if (r.k.units) k_text += " = " + fmt(r.fits.k * r.k.mD, 3) + " mD";
+  darcy.label = k_text;
+  darcy.x = {0, Gmax};
+  darcy.y = {0, r.fits.darcy.slope * Gmax};
+  pl.more.push_back(darcy);
+  if (r.fits.quadratic) {
+    const auto [deviation, deviation_error] = quadratic_departure(r);
+    plot::Series quad;
+    quad.label = "quadratic: deviation " + fmt(100 * deviation, 2) + " +- " +
+                 fmt(100 * deviation_error, 2) + " %";
+    for (int i = 0; i <= 40; ++i) {
+      const double G = Gmax * i / 40.0;
+      quad.x.push_back(G);
+      quad.y.push_back(r.fits.quadratic->c1 * G + r.fits.quadratic->c2 * G * G);
+    }
+    pl.more.push_back(quad);
+  }
+  const fs::path png = out_dir / "sweep.png";
+  plot::write_plot_png(pl, outputs.stage(png), png.string());
+}
+
+}  // namespace
+
+nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
+  const std::string where = scene.path.string() + ": sweep";
+  if (scene.stages.empty()) throw ConfigError(where + ": the scene has no [[run]] stage");
+  const sim::Model& model = scene.model;
+  const std::uint32_t driven = driven_types_of(scene, c, where);
+  const int axis = flow_axis_of(scene, c, driven);
   check_forces(where, c.forces);
   for (int t = 0; t < model.ntypes(); ++t) {
     if (((driven >> t) & 1u) && !model.is_mobile(t))
@@ -362,286 +680,26 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   o.dt = scene.stages.back().dt;
   for (size_t k = 0; k + 1 < scene.stages.size(); ++k)
     o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
-
-  // Viscosity: given, or calibrated (cached) for the driven fluid.
-  nlohmann::json viscosity_json;
-  if (c.viscosity) {
-    o.viscosity = *c.viscosity;
-    o.viscosity_error = c.viscosity_error.value_or(0.0);
-    viscosity_json = {{"value", o.viscosity}, {"error", o.viscosity_error}, {"source", "given"}};
-  } else {
-    int first = -1;
-    for (int t = 0; t < model.ntypes() && first < 0; ++t)
-      if ((driven >> t) & 1u) first = t;
-    const sim::PairSpec p = model.pair(first, first);
-    for (int a = 0; a < model.ntypes(); ++a)
-      for (int b = 0; b < model.ntypes(); ++b)
-        if (((driven >> a) & 1u) && ((driven >> b) & 1u)) {
-          const sim::PairSpec& q = model.pair(a, b);
-          if (q.A != p.A || q.B != p.B || q.gamma != p.gamma)
-            throw ConfigError(where +
-                              ": the driven types are not one fluid (their pair parameters "
-                              "differ), so no single viscosity calibration fits: give "
-                              "--viscosity");
-        }
-    FluidSpec fluid;
-    fluid.conservative = model.conservative;
-    fluid.density_kernel = model.density_kernel;
-    fluid.A = p.A;
-    fluid.B = p.B;
-    fluid.gamma = p.gamma;
-    fluid.rd = model.rd;
-    fluid.kBT = model.kBT;
-    fluid.lambda = model.lambda;
-    fluid.density = *density;
-    fluid.dt = o.dt;
-    fluid.precision = model.precision;
-    if (!model.thermostat || !(p.gamma > 0))
-      throw ConfigError(where +
-                        ": the viscosity calibration needs the thermostat: give --viscosity");
-    const fs::path cache =
-        c.viscosity_cache.empty() ? default_viscosity_cache() : c.viscosity_cache;
-    const CalibratedViscosity v =
-        calibrated_viscosity(fluid, parse_calibration_size(c.calibration), cache, o.sim, &meter);
-    o.viscosity = v.value;
-    o.viscosity_error = v.error;
-    viscosity_json = {{"value", v.value},
-                      {"error", v.error},
-                      {"source", v.source},
-                      {"cache_file", v.cache_file.string()},
-                      {"calibration", v.record}};
-  }
+  const nlohmann::json viscosity = sweep_viscosity(scene, c, where, o, meter);
 
   const std::vector<SweepPoint> points = run_sweep(sample, o);
   const SweepFits fits = fit_sweep(points, o.viscosity, o.viscosity_error);
-
-  const std::optional<sim::UnitSystem> units =
-      scene.units.nm_per_rc > 0 ? std::optional<sim::UnitSystem>(unit_system_of(scene.units))
-                                : std::nullopt;
-  const double nm2 = units ? scene.units.nm_per_rc * scene.units.nm_per_rc : 0;
-  const double mD = units ? units->permeability_m2(1.0) / kMillidarcyM2 : 0;
-  auto k_json = [&](double k, double e) {
-    nlohmann::json j = {{"rc2", k}, {"rc2_error", e}};
-    if (units) {
-      j["nm2"] = k * nm2;
-      j["nm2_error"] = e * nm2;
-      j["mD"] = k * mD;
-      j["mD_error"] = e * mD;
-    }
-    return j;
-  };
+  const SweepRecord record{scene, o, points, fits, PermeabilityUnits(scene)};
 
   std::error_code ec;
   fs::create_directories(c.out_dir, ec);
   if (ec) throw IoError(c.out_dir.string() + ": cannot create output folder: " + ec.message());
-
   // The four outputs appear together or not at all (sweep.json, written last, marks a complete
   // sweep): each is staged under a temporary name and all are renamed at the end.
   StagedOutputs outputs = StagedOutputs::files();
-  // sweep.csv and sweep_blocks.csv
-  {
-    std::ostringstream s;
-    s << std::setprecision(10);
-    s << "# mesorock " << kVersion << " (" << kGitCommit << "), rockflow sweep of "
-      << scene.path.string() << "\n";
-    s << "# reduced units (rc = m = kBT = 1): g per particle, G = n_f g with n_f = " << *density
-      << ", J = sum v / V_total, q = J / n_f (Darcy velocity), k = mu q / G with mu = "
-      << o.viscosity << " +- " << o.viscosity_error
-      << "; errors one standard error; k_nm2 and k_mD need [units] nm_per_rc"
-      << (units ? " (" + fmt(scene.units.nm_per_rc) + " nm per rc)" : std::string(" (not given)"))
-      << "\n";
-    s << "point,force_g,gradient_G,flux_J,flux_J_error,darcy_velocity_q,darcy_velocity_q_error,"
-         "k_rc2,k_rc2_error,k_nm2,k_nm2_error,k_mD,k_mD_error,steady,steady_after_steps,steps,"
-         "temperature,drift,drift_error,restarts"
-      << (model.solid.mask ? ",solid_inside_max,solid_max_depth" : "") << "\n";
-    for (size_t k = 0; k < points.size(); ++k) {
-      const SweepPoint& p = points[k];
-      s << k + 1 << "," << p.force << "," << p.gradient << "," << p.flux << "," << p.flux_error
-        << "," << p.darcy_velocity << "," << p.darcy_velocity_error << "," << p.permeability << ","
-        << p.permeability_error << ",";
-      if (units)
-        s << p.permeability * nm2 << "," << p.permeability_error * nm2 << "," << p.permeability * mD
-          << "," << p.permeability_error * mD;
-      else
-        s << ",,,";
-      s << "," << (p.steady ? 1 : 0) << "," << p.steady_after << "," << p.steps << ","
-        << p.temperature << "," << p.drift << "," << p.drift_error << "," << p.restarts;
-      if (model.solid.mask) s << "," << p.leaks.max_inside << "," << p.leaks.max_depth;
-      s << "\n";
-    }
-    outputs.write_text(c.out_dir / "sweep.csv", s.str());
-    std::ostringstream b;
-    b << std::setprecision(10);
-    b << "# flux J = sum v / V_total of each block of " << o.block_steps
-      << " steps after the warm-up of " << o.warmup_steps << " steps\n";
-    b << "point,force_g,block,steps,flux_J\n";
-    for (size_t k = 0; k < points.size(); ++k)
-      for (size_t j = 0; j < points[k].block_flux.size(); ++j)
-        b << k + 1 << "," << points[k].force << "," << j + 1 << ","
-          << o.warmup_steps + (j + 1) * o.block_steps << "," << points[k].block_flux[j] << "\n";
-    outputs.write_text(c.out_dir / "sweep_blocks.csv", b.str());
-  }
-
-  // sweep.json
-  nlohmann::json pj = nlohmann::json::array();
-  for (const auto& p : points)
-    pj.push_back({{"force_g", p.force},
-                  {"gradient_G", p.gradient},
-                  {"flux_J", p.flux},
-                  {"flux_J_error", p.flux_error},
-                  {"darcy_velocity_q", p.darcy_velocity},
-                  {"darcy_velocity_q_error", p.darcy_velocity_error},
-                  {"permeability", k_json(p.permeability, p.permeability_error)},
-                  {"steady", p.steady},
-                  {"steady_after_steps", p.steady_after},
-                  {"steps", p.steps},
-                  {"temperature", p.temperature},
-                  {"drift", p.drift},
-                  {"drift_error", p.drift_error},
-                  {"drift_note",
-                   "change of J across the measured blocks relative to J (least-squares trend)"},
-                  {"restarts", p.restarts}});
-  if (model.solid.mask)
-    for (size_t k = 0; k < points.size(); ++k) pj[k]["solid_invariant"] = points[k].leaks.json();
-  nlohmann::json fits_json = {
-      {"darcy",
-       {{"model", "q = (k / mu) G"},
-        {"slope", fits.darcy.slope},
-        {"slope_error", fits.darcy.slope_error},
-        {"permeability", k_json(fits.k, fits.k_error)},
-        {"chi2", fits.darcy.chi2},
-        {"dof", fits.darcy.dof},
-        {"chi2_99", chi2_99(fits.darcy.dof)},
-        {"consistent", fits.darcy.dof < 1 || fits.darcy.chi2 <= chi2_99(fits.darcy.dof)}}}};
-  if (fits.line)
-    fits_json["line"] = {{"model", "q = a + b G"},
-                         {"intercept", fits.line->intercept},
-                         {"intercept_error", fits.line->intercept_error},
-                         {"slope", fits.line->slope},
-                         {"slope_error", fits.line->slope_error},
-                         {"chi2", fits.line->chi2},
-                         {"dof", fits.line->dof}};
-  double deviation = 0, deviation_error = 0;
-  if (fits.quadratic) {
-    const QuadraticFit& qf = *fits.quadratic;
-    const double Gmax = points.back().gradient;
-    deviation = qf.departure(Gmax);
-    deviation_error = qf.departure_error(Gmax);
-    fits_json["quadratic"] = {
-        {"model", "q = c1 G + c2 G^2"},
-        {"c1", qf.c1},
-        {"c1_error", qf.c1_error},
-        {"c2", qf.c2},
-        {"c2_error", qf.c2_error},
-        {"covariance", qf.covariance},
-        {"chi2", qf.chi2},
-        {"dof", qf.dof},
-        {"permeability_at_zero_gradient", k_json(o.viscosity * qf.c1, o.viscosity * qf.c1_error)},
-        {"forchheimer_beta", -qf.c2 / (qf.c1 * qf.c1 * qf.c1)},
-        {"forchheimer_note",
-         "to first order G = q / c1 + beta q^2 with beta = -c2 / c1^3 (reduced units)"},
-        {"deviation_at_largest_gradient", deviation},
-        {"deviation_error", deviation_error},
-        {"deviation_significant", std::abs(deviation) > 2 * deviation_error},
-        {"deviation_note",
-         "c2 G_max / c1: relative departure of the flow rate from the Darcy line at the "
-         "largest gradient; significant when beyond two standard errors"}};
-  }
-  nlohmann::json summary = {
-      {"mesorock_version", kVersion},
-      {"git_commit", kGitCommit},
-      {"command", "rockflow sweep"},
-      {"scene_file", scene.path.string()},
-      {"scene_name", scene.name},
-      {"backend", sim::to_string(o.sim.backend)},
-      {"precision", sim::to_string(model.precision)},
-      {"flow_axis", std::string(1, "xyz"[axis])},
-      {"driven_types", nlohmann::json::array()},
-      {"fluid_particles", fluid_count},
-      {"fluid_density", *density},
-      {"porosity_estimate", static_cast<double>(fluid_count) / (*density * scene.box.volume())},
-      {"viscosity", viscosity_json},
-      {"definitions",
-       "G = n_f g (pressure-gradient equivalent of the body force), J = sum v / V_total, "
-       "q = J / n_f (Darcy velocity), k = mu q / G; docs/permeability.md"},
-      {"steady_state",
-       {{"warmup_steps", o.warmup_steps},
-        {"block_steps", o.block_steps},
-        {"sample_every", o.sample_every},
-        {"window_blocks", o.window},
-        {"tolerance", o.tolerance},
-        {"measure_blocks", o.measure_blocks},
-        {"max_steps", o.max_steps},
-        {"chained", o.chain},
-        {"rule",
-         "steady when the mean flux of the last window blocks agrees with the window before "
-         "within the tolerance (relative) or two combined standard errors; then measure_blocks "
-         "blocks give the flux and its standard error, unless their least-squares trend is "
-         "beyond Student's t_99 standard errors (a drifting flux: the point waits again)"}}},
-      {"dt", o.dt},
-      {"prepared_with",
-       [&] {
-         nlohmann::json j = nlohmann::json::array();
-         for (const auto& [steps, dt] : o.prepare) j.push_back({{"steps", steps}, {"dt", dt}});
-         return j;
-       }()},
-      {"solid", solid_json(model.solid,
-                           [&] {
-                             LeakRecord all;
-                             for (const SweepPoint& p : points) all.merge(p.leaks);
-                             return all;
-                           }())},
-      {"points", pj},
-      {"fits", fits_json},
-      {"units", units_json(units)},
-      {"particle_steps", meter.work()},
-      {"wall_seconds", meter.seconds()},
-      {"outputs", {"sweep.csv", "sweep_blocks.csv", "sweep.json", "sweep.png"}},
-      {"scene", scene.source_text}};
-  for (int t = 0; t < model.ntypes(); ++t)
-    if ((driven >> t) & 1u)
-      summary["driven_types"].push_back(model.types[static_cast<size_t>(t)].name);
-
-  // sweep.png: q against G with error bars, the Darcy line and the quadratic.
-  {
-    plot::Plot pl;
-    pl.title = "Darcy velocity vs pressure gradient (" + scene.name + ")";
-    pl.x_label = "G = n g  (kBT / rc^4)";
-    pl.y_label = "q  (rc / tau)";
-    pl.style = plot::PlotStyle::kPoints;
-    pl.label = "measured (1 s.e.)";
-    pl.x_from_zero = true;
-    for (const auto& p : points) {
-      pl.x.push_back(p.gradient);
-      pl.y.push_back(p.darcy_velocity);
-      pl.y_error.push_back(p.darcy_velocity_error);
-    }
-    const double Gmax = points.back().gradient * 1.05;
-    plot::Series darcy;
-    std::string k_text = "Darcy: k = " + fmt(fits.k, 3) + " rc^2";
-    if (units) k_text += " = " + fmt(fits.k * mD, 3) + " mD";
-    darcy.label = k_text;
-    darcy.x = {0, Gmax};
-    darcy.y = {0, fits.darcy.slope * Gmax};
-    pl.more.push_back(darcy);
-    if (fits.quadratic) {
-      plot::Series quad;
-      quad.label = "quadratic: deviation " + fmt(100 * deviation, 2) + " +- " +
-                   fmt(100 * deviation_error, 2) + " %";
-      for (int i = 0; i <= 40; ++i) {
-        const double G = Gmax * i / 40.0;
-        quad.x.push_back(G);
-        quad.y.push_back(fits.quadratic->c1 * G + fits.quadratic->c2 * G * G);
-      }
-      pl.more.push_back(quad);
-    }
-    const fs::path png = c.out_dir / "sweep.png";
-    plot::write_plot_png(pl, outputs.stage(png), png.string());
-  }
+  write_sweep_tables(outputs, c.out_dir, record);
+  const nlohmann::json summary = sweep_summary(record, fluid_count, viscosity, meter);
+  write_sweep_plot(outputs, c.out_dir, record);
   outputs.write_text(c.out_dir / "sweep.json", summary.dump(2) + "\n");
   outputs.commit();
+  const PermeabilityUnits& k = record.k;
   meter.finish("k = " + fmt(fits.k) + " +- " + fmt(fits.k_error, 2) + " rc^2" +
-               (units ? " (" + fmt(fits.k * mD) + " mD)" : std::string()) + "; outputs in " +
+               (k.units ? " (" + fmt(fits.k * k.mD) + " mD)" : std::string()) + "; outputs in " +
                c.out_dir.string());
   return summary;
 }
