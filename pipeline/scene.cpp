@@ -749,8 +749,12 @@ void read_injection(const Context& c, Table& top, Scene& s) {
     const std::int64_t start = t.integer("start_step").value_or(0);
     if (start < 0) fail(c, t.key("start_step"), "must be >= 0 (got " + std::to_string(start) + ")");
     q.start_step = static_cast<std::uint64_t>(start);
-    if (auto stop = t.integer("stop_step"))
-      q.stop_step = static_cast<std::uint64_t>(std::max<std::int64_t>(*stop, 0));
+    if (auto stop = t.integer("stop_step")) {
+      if (*stop <= start)  // also the sim's rule, but a negative value would not survive the cast
+        fail(c, t.key("stop_step"),
+             "must be greater than start_step (got " + std::to_string(*stop) + ")");
+      q.stop_step = static_cast<std::uint64_t>(*stop);
+    }
     s.model.injections.push_back(q);
     // The sim checks the boundary (every caller of make_simulation goes through the same check);
     // its message names the key, this file names the scene.
