@@ -15,11 +15,6 @@ template <class Real>
 void init_host_state(HostState<Real>& state, const Model& model, const BoxSpec& box,
                      const ParticleSet& particles, double dt, const SimulationOptions& options);
 
-// The kernels' view of the model's solid grid in this box (disabled without a grid): indices
-// wrap along the periodic box edges the grid spans.
-template <class Real>
-SolidView<Real> solid_view_of(const SolidSpec& spec, const BoxSpec& box);
-
 // The engine of options.backend for the model's compiled term set.
 template <class Real>
 std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& options);

@@ -11,6 +11,7 @@
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "sim/hdf5_util.h"
+#include "sim/model.h"
 
 namespace mesorock::sim {
 
@@ -160,5 +161,41 @@ SolidMask read_solid_file(const fs::path& path) {
   }
   return m;
 }
+
+namespace {
+
+// Whether the solid grid spans the box edge along axis a (then its indices wrap on a periodic
+// axis): same start and length to a millionth of the edge.
+bool grid_spans_axis(const SolidMask& g, const BoxSpec& box, int a) {
+  const auto k = static_cast<size_t>(a);
+  const double len = box.length(a), tol = 1e-6 * len;
+  return std::abs(g.origin[k] - box.lo[k]) <= tol &&
+         std::abs(static_cast<double>(g.dims[k]) * g.voxel[k] - len) <= tol;
+}
+
+}  // namespace
+
+template <class Real>
+SolidView<Real> solid_view_of(const SolidSpec& spec, const BoxSpec& box) {
+  SolidView<Real> v;
+  if (!spec.mask) return v;
+  const SolidMask& g = *spec.mask;
+  v.solid = g.solid.data();
+  for (int a = 0; a < 3; ++a) {
+    const auto k = static_cast<size_t>(a);
+    v.dims[a] = static_cast<int>(g.dims[k]);
+    v.origin[a] = static_cast<Real>(g.origin[k]);
+    v.voxel[a] = static_cast<Real>(g.voxel[k]);
+    v.inv_voxel[a] = static_cast<Real>(1.0 / g.voxel[k]);
+    v.periodic[a] = box.periodic[k] && grid_spans_axis(g, box, a);
+    // Far enough that every depth up to the stop depth is found exactly.
+    v.reach[a] = static_cast<int>(std::ceil(spec.stop_depth / g.voxel[k])) + 1;
+  }
+  v.bounce = spec.bounce;
+  v.stop_depth = static_cast<Real>(spec.stop_depth);
+  return v;
+}
+template SolidView<float> solid_view_of<float>(const SolidSpec&, const BoxSpec&);
+template SolidView<double> solid_view_of<double>(const SolidSpec&, const BoxSpec&);
 
 }  // namespace mesorock::sim

@@ -148,4 +148,10 @@ struct SolidSpec {
   std::uint64_t stop_count = 0;
 };
 
+struct BoxSpec;  // sim/model.h
+// The kernels' view of the model's solid grid in this box (disabled without a grid): indices
+// wrap along the periodic box edges the grid spans.
+template <class Real>
+SolidView<Real> solid_view_of(const SolidSpec& spec, const BoxSpec& box);
+
 }  // namespace mesorock::sim
