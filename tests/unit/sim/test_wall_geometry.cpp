@@ -1,4 +1,4 @@
-// The wall model's surface on curved walls (wall_liquid.h): the boundary volume fraction phi
+// The wall model's surface on curved walls (sim/wall_geometry.h): the boundary volume fraction phi
 // next to a solid ball and inside a tube, from the quadratures, against an independent Monte
 // Carlo integral of the Lucy kernel over the solid; the flat-wall limit phi = 1/2 on the cut; the
 // phi = 1/2 surface lies inside a convex wall and inside the pore of a concave one.
@@ -8,10 +8,10 @@
 #include <functional>
 #include <random>
 
-#include "pipeline/flow/wall_liquid.h"
+#include "sim/wall_geometry.h"
 #include "sim/wall_model.h"
 
-namespace wl = mesorock::pipeline::wall_liquid;
+namespace wl = mesorock::sim;
 
 namespace {
 
