@@ -1,7 +1,7 @@
 #pragma once
-// What every Simulation implementation shares (sim/simulation.cpp): input validation, the host
-// state built from the model and the particles, and the engine of the chosen backend. The
-// single-rank Simulation and the decomposed one (sim/domain/distributed.cpp) both start here.
+// How a Simulation (sim/simulation.cpp) starts on each rank: input validation, the host state
+// built from the model and the particles, and the engine of the chosen backend. The decomposed
+// Domain (sim/domain/distributed.cpp) builds its ranks' states with these too.
 #include <memory>
 
 #include "sim/simulation.h"

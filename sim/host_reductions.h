@@ -1,8 +1,8 @@
 #pragma once
-// The host-side sums behind the Simulation observables, shared by the single-rank simulation
-// (sim/simulation.cpp) and the decomposed one (sim/domain/distributed.cpp, which then sums them
-// over its ranks). Frozen types and rigid slabs are never counted: their velocities are not
-// thermal. Internal to sim/.
+// The host-side sums behind the Simulation observables (sim/simulation.cpp): each rank sums over
+// its own particles, and the Domain's communicator sums the ranks (one rank: nothing to add).
+// Frozen types and rigid slabs are never counted: their velocities are not thermal. Internal to
+// sim/.
 #include <array>
 #include <cstdint>
 
