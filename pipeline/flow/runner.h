@@ -118,6 +118,7 @@ class Runner {
                        std::uint64_t chunk, std::chrono::steady_clock::time_point since) const;
   nlohmann::json base_summary(double run_seconds) const;
   double run_seconds() const;
+  double mobile_particles();
 
   const Scene& scene_;
   sim::Simulation& sim_;

@@ -358,3 +358,70 @@ pressure = true
     EXPECT_GT(row[static_cast<size_t>(pc)], 5.0);
   EXPECT_TRUE(summary.at("regions").at("last_sample").at("middle").contains("pressure"));
 }
+
+// summary.json gives the fluid's throughput beside MPS/s: frozen particles count in `particles`
+// and `mps`, not in `mobile_particles` and `mobile_mps`.
+TEST(RunOutputs, SummaryCountsTheMobileParticlesApartFromTheFrozenOnes) {
+  TempDir dir;
+  const fs::path scene = dir / "scene.toml";
+  {
+    std::ofstream f(scene);
+    f << R"(name = "mobile"
+seed = 3
+[box]
+lo = [0.0, 0.0, 0.0]
+hi = [4.0, 4.0, 4.0]
+[model]
+conservative = "mdpd"
+[[types]]
+name = "water"
+[[types]]
+name = "wall"
+frozen = true
+[[pairs]]
+types = ["water", "water"]
+A = -40.0
+B = 25.0
+gamma = 4.5
+[[pairs]]
+types = ["water", "wall"]
+A = -40.0
+B = 25.0
+gamma = 4.5
+[[pairs]]
+types = ["wall", "wall"]
+A = 0.0
+B = 0.0
+gamma = 0.0
+[[init]]
+kind = "random"
+type = "wall"
+count = 70
+hi = [4.0, 4.0, 1.0]
+[[init]]
+kind = "random"
+type = "water"
+count = 250
+lo = [0.0, 0.0, 1.0]
+[[run]]
+steps = 20
+dt = 0.005
+[output]
+thermo_every = 10
+)";
+  }
+  const CommandResult r = mesorock::test::run_command(
+      mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
+          mesorock::test::shell_quote(scene.string()) + " --out " +
+          mesorock::test::shell_quote((dir / "out").string()) + " --threads 1",
+      dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto summary =
+      nlohmann::json::parse(mesorock::test::read_file(dir / "out" / "summary.json"));
+  EXPECT_EQ(summary.at("particles").get<int>(), 320);
+  EXPECT_EQ(summary.at("mobile_particles").get<double>(), 250.0);
+  const double mps = summary.at("mps").get<double>();
+  ASSERT_GT(mps, 0.0);
+  EXPECT_NEAR(summary.at("mobile_mps").get<double>(), mps * 250.0 / 320.0, 1e-9 * mps);
+  EXPECT_NE(r.err.find("of mobile particles"), std::string::npos) << r.err;
+}
