@@ -1,6 +1,7 @@
 #include "pipeline/flow/sweep.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -137,6 +138,7 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
         model.types[static_cast<size_t>(t)].body_force[axis] = p.force;
       }
     model.seed = sample.model.seed + k;  // independent thermal noise at each point
+    const auto t_point = std::chrono::steady_clock::now();
     auto sim = sim::make_simulation(model, sample.box, o.chain ? start : prepared, o.dt, o.sim);
     const std::string label = "point " + std::to_string(k + 1) + "/" +
                               std::to_string(forces.size()) + " g = " + fmt(p.force, 3);
@@ -204,6 +206,7 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
         std::abs(p.permeability) *
         std::hypot(p.flux != 0 ? p.flux_error / p.flux : 0.0, o.viscosity_error / o.viscosity);
     p.temperature = sim->kinetic_temperature();
+    p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_point).count();
     if (o.chain) start = sim->particles();
     points.push_back(std::move(p));
   }
@@ -530,6 +533,30 @@ nlohmann::json fits_json(const SweepRecord& r) {
   return j;
 }
 
+// The points' throughput (the calibration and the preparing stages left out): MPS/s over all
+// particles and over the mobile ones (frozen walls count as particles but do not move).
+nlohmann::json points_throughput(const SweepRecord& r, std::size_t particles, std::size_t mobile) {
+  double seconds = 0, steps = 0;
+  nlohmann::json each = nlohmann::json::array();  // timings stay out of "points" (results)
+  for (const auto& p : r.points) {
+    seconds += p.seconds;
+    steps += static_cast<double>(p.steps);
+    each.push_back(p.seconds);
+  }
+  const auto rate = [&](std::size_t n) {
+    return seconds > 0 ? static_cast<double>(n) * steps / seconds / 1e6 : 0.0;
+  };
+  nlohmann::json j;
+  j["seconds"] = seconds;
+  j["point_seconds"] = each;
+  j["steps"] = steps;
+  j["particles"] = particles;
+  j["mobile_particles"] = mobile;
+  j["mps"] = rate(particles);
+  j["mobile_mps"] = rate(mobile);
+  return j;
+}
+
 nlohmann::json sweep_summary(const SweepRecord& r, std::size_t fluid_count,
                              const nlohmann::json& viscosity, const ProgressMeter& meter) {
   const SweepOptions& o = r.o;
@@ -656,10 +683,11 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   // has no permeability (the driven fluid accelerates without bound; such runs reported
   // k = 3.3 and 11.9 rc^2), so it is refused here rather than given a number.
   SweepSample sample{scene.model, scene.box, build_initial_particles(scene)};
-  std::size_t fluid_count = 0, frozen_count = 0;
+  std::size_t fluid_count = 0, frozen_count = 0, mobile_count = 0;
   for (auto t : sample.particles.type) {
     fluid_count += (driven >> t) & 1u;
     frozen_count += model.types[static_cast<size_t>(t)].frozen ? 1 : 0;
+    mobile_count += model.is_mobile(t) ? 1 : 0;
   }
   const bool solid_voxels =
       model.solid.mask && std::find(model.solid.mask->solid.begin(), model.solid.mask->solid.end(),
@@ -693,7 +721,8 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   // sweep): each is staged under a temporary name and all are renamed at the end.
   StagedOutputs outputs = StagedOutputs::files();
   write_sweep_tables(outputs, c.out_dir, record);
-  const nlohmann::json summary = sweep_summary(record, fluid_count, viscosity, meter);
+  nlohmann::json summary = sweep_summary(record, fluid_count, viscosity, meter);
+  summary["throughput"] = points_throughput(record, sample.particles.size(), mobile_count);
   write_sweep_plot(outputs, c.out_dir, record);
   outputs.write_text(c.out_dir / "sweep.json", summary.dump(2) + "\n");
   outputs.commit();

@@ -79,8 +79,9 @@ struct SweepPoint {
   // The trend of J over the measured blocks: its change across them relative to J, with its
   // error; a significant trend (beyond t_99 standard errors) restarts the measurement.
   double drift = 0, drift_error = 0;
-  int restarts = 0;  // measurements thrown away for a drifting flux
-  LeakRecord leaks;  // the leak invariant at every block (scenes with a solid grid)
+  int restarts = 0;    // measurements thrown away for a drifting flux
+  LeakRecord leaks;    // the leak invariant at every block (scenes with a solid grid)
+  double seconds = 0;  // wall time of this point's steps (set-up and measurement included)
 };
 
 struct SweepSample {

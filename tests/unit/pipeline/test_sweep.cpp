@@ -230,6 +230,20 @@ TEST(SweepCli, TinySweepWritesItsOutputsAndReusesTheCalibration) {
   EXPECT_TRUE(fs::exists(dir / "a" / "sweep_blocks.csv"));
   const std::string cache_file = j.at("viscosity").at("cache_file").get<std::string>();
   EXPECT_TRUE(fs::exists(cache_file));
+  // The points' throughput: the frozen wall counts in `particles`, not in `mobile_particles`
+  // (here the one fluid type, water).
+  const auto& tp = j.at("throughput");
+  const double all = tp.at("particles").get<double>(),
+               mobile = tp.at("mobile_particles").get<double>();
+  EXPECT_EQ(mobile, j.at("fluid_particles").get<double>());
+  EXPECT_LT(mobile, all);
+  double steps = 0, seconds = 0;
+  for (const auto& p : j.at("points")) steps += p.at("steps").get<double>();
+  for (const auto& t : tp.at("point_seconds")) seconds += t.get<double>();
+  EXPECT_EQ(tp.at("steps").get<double>(), steps);
+  EXPECT_NEAR(tp.at("seconds").get<double>(), seconds, 1e-9 * seconds);
+  ASSERT_GT(tp.at("mps").get<double>(), 0.0);
+  EXPECT_NEAR(tp.at("mobile_mps").get<double>() / tp.at("mps").get<double>(), mobile / all, 1e-12);
 
   // The second sweep of the same fluid reads the calibration from the cache.
   const CommandResult again = sweep("b");
