@@ -519,11 +519,8 @@ StressSample SimulationImpl<Real>::stress_of(const VirialRegion<Real>& region, d
     sums[18 + c] = w.random[c];
   }
   comm().sum(sums, 24);
-  // One rank has always scaled by 1 / V and a decomposition divided by V: each keeps its
-  // rounding, so its outputs stay what they were, bit for bit.
   const double inv_v = 1.0 / volume;
-  const bool divide = domain_->decomposed();
-  auto per_volume = [&](double x) { return divide ? x / volume : x * inv_v; };
+  auto per_volume = [inv_v](double x) { return x * inv_v; };
   StressSample out;
   out.volume = volume;
   for (int c = 0; c < 6; ++c) {
