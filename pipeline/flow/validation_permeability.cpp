@@ -44,6 +44,7 @@
 #include "pipeline/flow/validation.h"
 #include "pipeline/flow/wall_liquid.h"
 #include "sim/simulation.h"
+#include "sim/wall_geometry.h"
 
 namespace mesorock::pipeline {
 
@@ -235,7 +236,7 @@ CaseResult run_perm_tube(const ValidateOptions& o) {
   BuiltSystem s = liquid_with_walls(
       L, {true, true, true}, [&](double x, double y, double) { return radius(x, y) - R; }, w, 500,
       82, o);
-  const double surface = tube_surface_offset(R);  // the model's surface, into the pore
+  const double surface = sim::tube_surface_offset(R);  // the model's surface, into the pore
   const double R_eff = R - surface + kSlipLength;
   // Peak shear rate at the wall n g R / (2 mu) = 0.2.
   const double g = 0.2 * 2 * kBulkViscosity / (kRho * R_eff);
@@ -290,7 +291,7 @@ CaseResult run_perm_sphere_array(const ValidateOptions& o) {
   constexpr double kSolidFraction = 0.125;
   const double kZickHomsyK = kZickHomsySimpleCubic[2][1];  // at c = 0.125
   const double a = full ? 4.5 : 2.5, w = kWallThickness;
-  const double surface = ball_surface_offset(a);  // the model's surface (< 0: inside the ball)
+  const double surface = sim::ball_surface_offset(a);  // the model's surface (< 0: inside the ball)
   const double a_eff = a + surface - kSlipLength;
   const double Ledge = a_eff * std::cbrt(4 * M_PI / (3 * kSolidFraction));
   const double L[3] = {Ledge, Ledge, Ledge};

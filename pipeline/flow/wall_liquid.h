@@ -8,7 +8,6 @@
 
 #include "pipeline/flow/systems.h"
 #include "pipeline/flow/validation.h"
-#include "sim/wall_geometry.h"
 
 namespace mesorock::pipeline::wall_liquid {
 
@@ -28,11 +27,5 @@ using SolidDepth = std::function<double(double x, double y, double z)>;
 BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
                               const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
                               std::uint64_t seed, const ValidateOptions& o);
-
-// The wall model's surface on a curved wall (ball, tube): sim/wall_geometry.h.
-using sim::ball_boundary_fraction;
-using sim::ball_surface_offset;
-using sim::tube_boundary_fraction;
-using sim::tube_surface_offset;
 
 }  // namespace mesorock::pipeline::wall_liquid
