@@ -98,6 +98,15 @@ double Runner::mobile_particles() {
   return sim_.bin_sums(whole)[sim::kBinCount];
 }
 
+namespace {
+
+// Progress about every hundredth of a stage.
+std::uint64_t progress_interval(const StageSpec& stage) {
+  return std::max<std::uint64_t>(1, stage.steps / 100);
+}
+
+}  // namespace
+
 double Runner::run_seconds() const {
   return earlier_run_seconds_ + std::chrono::duration<double>(Clock::now() - t_run_).count();
 }
@@ -146,7 +155,7 @@ void Runner::run_stage(const StageSpec& stage, std::uint64_t done) {
 // takes 7 s a step; 1,000 of them ignored Ctrl-C for hours). The chunking changes no result: the
 // engines step one step at a time either way.
 std::uint64_t Runner::next_chunk(const StageSpec& stage, std::uint64_t done, bool averaged) const {
-  const std::uint64_t progress_every = std::max<std::uint64_t>(1, stage.steps / 100);
+  const std::uint64_t progress_every = progress_interval(stage);
   std::uint64_t n = std::min(stage.steps - done, progress_every - done % progress_every);
   const RunPoint at{sim_.step(), time_, &stage, averaged};
   for (const auto& o : outputs_) n = std::min(n, o->steps_to_next(at));
@@ -209,7 +218,7 @@ void Runner::report_progress(const StageSpec& stage, std::uint64_t done, std::ui
   const double eta = here > 0 ? el * static_cast<double>(stage.steps - done) / here : 0;
   // On a terminal one line is redrawn; in a log, a line per tenth of the stage.
   const bool tty = isatty(STDERR_FILENO);
-  const std::uint64_t progress_every = std::max<std::uint64_t>(1, stage.steps / 100);
+  const std::uint64_t progress_every = progress_interval(stage);
   const std::uint64_t tenth = std::max<std::uint64_t>(1, stage.steps / 10);
   if ((tty && done % progress_every == 0) || done == stage.steps ||
       (done / tenth) != ((done - chunk) / tenth))
