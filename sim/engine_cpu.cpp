@@ -7,7 +7,9 @@
 #include <vector>
 
 #include "sim/kernels.h"
+#include "sim/stepper.h"
 #include "sim/terms.h"
+#include "sim/watchdog.h"
 
 namespace mesorock::sim {
 
@@ -62,7 +64,12 @@ class CellSorter {
 };
 
 template <class Real, class Terms>
-class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
+class CpuEngine final : public Engine<Real>,
+                        public DomainStore<Real>,
+                        private Stepper<Real, Terms, CpuEngine<Real, Terms>> {
+  using Steps = Stepper<Real, Terms, CpuEngine<Real, Terms>>;
+  friend Steps;
+
  public:
   explicit CpuEngine(int threads) : threads_(threads) {}
 
@@ -70,69 +77,25 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
 
   void initialize(HostState<Real>& host, StepHooks<Real>* hooks) override {
     s_ = &host;
-    hooks_ = hooks;
-    compute_forces();
-    set_slab_forces(false);
+    this->attach_hooks(hooks);
+    ThreadScope scope(threads_);
+    this->initial_forces();
   }
 
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>* hooks) override {
     s_ = &host;
-    hooks_ = hooks;
+    this->attach_hooks(hooks);
     corrected_ = wall_corrections;
     ThreadScope scope(threads_);
     // A single-rank checkpoint is already sorted (stable sort: no particle moves); a gathered one
     // (decomposed run) is in the original order, so the last forces move with their particles.
-    sort(true);
+    this->sort(true);
   }
 
   void advance(std::uint64_t steps) override {
     ThreadScope scope(threads_);
-    for (std::uint64_t k = 0; k < steps; ++k) {
-      for (size_t b = 0; b < s_->slab_bodies.size(); ++b) {
-        slab_half_kick(s_->slab_bodies[b], s_->dt);
-        s_->slab_half_velocity[b] = static_cast<Real>(s_->slab_bodies[b].half_velocity);
-      }
-      const StepView<Real> v = s_->view();
-      const int n = v.n;
-#pragma omp parallel for schedule(static)
-      for (int i = 0; i < n; ++i) kick_drift<Real, Terms::thermostat::enabled>(v, i);
-      ++s_->step;
-      compute_forces();
-      set_slab_forces(true);
-      const StepView<Real> w = s_->view();
-      const int m = w.n;  // the decomposition may have changed the count
-#pragma omp parallel for schedule(static)
-      for (int i = 0; i < m; ++i) kick(w, i);
-      if (!s_->injections.empty()) inject();
-      if (this->watchdog_.enabled) watchdog_scan(w, this->watchdog_);  // throws on a blow-up
-    }
-  }
-
-  // The injection/ejection events due at this step (sim/injection.h). Serial on purpose: one
-  // O(N) scan per pick, independent of the thread count; the GPU takes the same particle.
-  void inject() {
-    if (counts_.size() != s_->injections.size()) counts_.resize(s_->injections.size());
-    const StepView<Real> v = s_->view();
-    for (size_t k = 0; k < s_->injections.size(); ++k) {
-      const InjectionPlan<Real>& plan = s_->injections[k];
-      if (!plan.due(v.step)) continue;
-      for (int pick = 0; pick < plan.per_event; ++pick) {
-        std::uint64_t best = kNoInjectionCandidate;
-        for (int i = 0; i < v.n; ++i)
-          best = std::min(best, injection_key_of(v, plan.view, i, pick));
-        if (hooks_) best = hooks_->min(best);
-        if (best == kNoInjectionCandidate) {
-          ++counts_[k].missed;
-          continue;
-        }
-        for (int i = 0; i < v.n; ++i)
-          if (injection_key_of(v, plan.view, i, pick) == best) {
-            inject_particle(v, plan.view, i, pick);
-            ++counts_[k].injected;
-          }
-      }
-    }
+    this->run_steps(steps);
   }
 
   void neighbour_counts(std::vector<int>& counts) override {
@@ -223,43 +186,34 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     int saved;
   };
 
-  // Cell list, density (only with a many-body term), the wall model's phi and corrector (only
-  // with it), forces; for step s_->step. With a decomposition: migration and ghosts first, the
-  // ghosts' sums after the density pass.
-  void compute_forces() {
-    ThreadScope scope(threads_);
-    if (hooks_) hooks_->exchange(*this);
-    if (sort_due()) sort();
-    setup_poll();
-    using C = typename Terms::conservative;
-    using W = typename Terms::wall_model;
-    local_sums();
-    setup_poll();
-    if (hooks_) hooks_->sync_sums(*this);
-    if constexpr (W::enabled) {
-      const bool corrected = correct_penetrations() > 0;
-      if (hooks_ ? hooks_->any(corrected) : corrected) {
-        // Corrected particles moved: sort and sum again so the cell list and rho stay exact
-        // (and, decomposed, their ghosts follow them first).
-        if (hooks_) hooks_->refresh_ghosts(*this);
-        sort();
-        local_sums();
-        if (hooks_) hooks_->sync_sums(*this);
-      }
-    }
-    const StepView<Real> v = s_->view();
+  // ---- The backend primitives of the step sequence (sim/stepper.h). ----
+  HostState<Real>& host_state() {
+    return *s_;
+  }
+  StepView<Real> view() const {
+    return s_->view();
+  }
+  void next_step() {
+    ++s_->step;
+  }
+
+  // body(v, i) for every stored particle, OpenMP static schedule: each particle's result is its
+  // own, so the thread count changes nothing. While setting up, in chunks with the interrupt check
+  // between them.
+  template <class Body>
+  void for_each(const StepView<Real>& v, Body body) {
     const int n = v.n;
     if (setting_up()) {
-      setup_chunks(n, [&](int k) {
-        force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force, W>(
-            v, k, NeighbourStash{});
-      });
+      setup_chunks(n, [&](int k) { body(v, k); });
       return;
     }
 #pragma omp parallel for schedule(static)
-    for (int k = 0; k < n; ++k)
-      force_on_particle<Real, C, typename Terms::thermostat, typename Terms::body_force, W>(
-          v, k, NeighbourStash{});
+    for (int i = 0; i < n; ++i) body(v, i);
+  }
+  // On the CPU the neighbour stash is off: each neighbour is visited straight from the cell list.
+  template <class Body>
+  void for_each_stashed(const StepView<Real>& v, Body body) {
+    for_each(v, [&](const StepView<Real>& w, int i) { body(w, i, NeighbourStash{}); });
   }
 
   // Set-up (an interrupt check is set, Engine::set_interrupt_check; never in a decomposed run,
@@ -269,9 +223,9 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
   // results are those of one loop. A step's passes keep the plain loops.
   static constexpr int kSetupChunk = 1 << 18;
   bool setting_up() const {
-    return this->interrupt_check_ && !hooks_;
+    return this->interrupt_check_ && !this->hooks().distributed();
   }
-  void setup_poll() {
+  void poll_setup() {
     if (setting_up()) this->interrupt_check_();
   }
   template <class Body>
@@ -284,13 +238,19 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     }
   }
 
-  // Every step, or with a reorder interval (HostState::reorder_every) when the interval is up or a
-  // particle has moved more than skin / 2 since the last sort.
-  bool sort_due() {
-    const int every = s_->reorder_every;
-    if (every <= 1 || ++steps_since_sort_ >= every || x0_.size() != s_->x.size()) return true;
+  void sort_by_cell(bool carry_forces) {
+    sorter_.sort(*s_, carry_forces);
+  }
+  bool sort_positions_stale() const {
+    return x0_.size() != s_->x.size();
+  }
+  void remember_sort_positions() {
+    x0_ = s_->x;
+    y0_ = s_->y;
+    z0_ = s_->z;
+  }
+  bool any_moved_beyond(Real limit2) {
     const StepView<Real> v = s_->view();
-    const Real half = Real(0.5) * s_->skin, limit2 = half * half;
     const int n = v.n;
     int moved = 0;
 #pragma omp parallel for schedule(static) reduction(max : moved)
@@ -300,36 +260,10 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     return moved != 0;
   }
 
-  void sort(bool carry_forces = false) {
-    sorter_.sort(*s_, carry_forces);
-    if (s_->reorder_every > 1) {
-      x0_ = s_->x;
-      y0_ = s_->y;
-      z0_ = s_->z;
-      steps_since_sort_ = 0;
-    }
-  }
-
-  void local_sums() {
-    using C = typename Terms::conservative;
-    const StepView<Real> v = s_->view();
-    const int n = v.n;
-    if constexpr (Terms::wall_model::enabled) {
-      using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
-      if (setting_up()) {
-        setup_chunks(n, [&](int k) { density_and_bvf_of_particle<Real, K>(v, k); });
-        return;
-      }
-#pragma omp parallel for schedule(static)
-      for (int k = 0; k < n; ++k) density_and_bvf_of_particle<Real, K>(v, k);
-    } else if constexpr (C::needs_density) {
-      if (setting_up()) {
-        setup_chunks(n,
-                     [&](int k) { density_of_particle<Real, typename C::density_kernel>(v, k); });
-        return;
-      }
-#pragma omp parallel for schedule(static)
-      for (int k = 0; k < n; ++k) density_of_particle<Real, typename C::density_kernel>(v, k);
+  void slab_half_kicks() {
+    for (size_t b = 0; b < s_->slab_bodies.size(); ++b) {
+      slab_half_kick(s_->slab_bodies[b], s_->dt);
+      s_->slab_half_velocity[b] = static_cast<Real>(s_->slab_bodies[b].half_velocity);
     }
   }
 
@@ -342,14 +276,14 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
     return sum;
   }
 
-  // The slabs' forces from the last force pass (summed over the ranks when decomposed), then
-  // (kick) their second half kicks.
-  void set_slab_forces(bool kick) {
+  // The slabs' forces from the last force pass (summed over the ranks), then (kick) their second
+  // half kicks.
+  void slab_forces(bool kick) {
     const size_t count = s_->slab_bodies.size();
     if (count == 0) return;
     std::vector<double> f(count);
     for (size_t b = 0; b < count; ++b) f[b] = slab_pair_force(static_cast<int>(b));
-    if (hooks_) hooks_->sum(f.data(), static_cast<int>(count));
+    this->hooks().sum(f.data(), static_cast<int>(count));
     for (size_t b = 0; b < count; ++b) {
       slab_set_force(s_->slab_bodies[b], f[b]);
       if (!kick) continue;
@@ -357,6 +291,38 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
       s_->slab_velocity[b] = static_cast<Real>(s_->slab_bodies[b].velocity);
     }
   }
+
+  // The injection/ejection events due at this step (sim/injection.h). Serial on purpose: one
+  // O(N) scan per pick, independent of the thread count; the GPU takes the same particle.
+  void inject() {
+    if (counts_.size() != s_->injections.size()) counts_.resize(s_->injections.size());
+    const StepView<Real> v = s_->view();
+    for (size_t k = 0; k < s_->injections.size(); ++k) {
+      const InjectionPlan<Real>& plan = s_->injections[k];
+      if (!plan.due(v.step)) continue;
+      for (int pick = 0; pick < plan.per_event; ++pick) {
+        std::uint64_t best = kNoInjectionCandidate;
+        for (int i = 0; i < v.n; ++i)
+          best = std::min(best, injection_key_of(v, plan.view, i, pick));
+        best = this->hooks().min(best);
+        if (best == kNoInjectionCandidate) {
+          ++counts_[k].missed;
+          continue;
+        }
+        for (int i = 0; i < v.n; ++i)
+          if (injection_key_of(v, plan.view, i, pick) == best) {
+            inject_particle(v, plan.view, i, pick);
+            ++counts_[k].injected;
+          }
+      }
+    }
+  }
+
+  void watchdog_step() {
+    if (this->watchdog_.enabled) watchdog_scan(s_->view(), this->watchdog_);  // throws
+  }
+  void finish_steps(std::uint64_t) {}
+  void mark(StepPhase) {}
 
  public:
   // ---- DomainStore (sim/domain/exchange.h): the host storage as a decomposition sees it. ----
@@ -555,10 +521,8 @@ class CpuEngine final : public Engine<Real>, public DomainStore<Real> {
   };
   std::vector<Correction> corrections_;
   std::vector<InjectionCounts> counts_;
-  StepHooks<Real>* hooks_ = nullptr;  // a decomposed run's (sim/domain); null otherwise
-  // Reorder interval only: the positions at the last sort, and the steps since.
+  // Reorder interval only: the positions at the last sort.
   std::vector<Real> x0_, y0_, z0_;
-  int steps_since_sort_ = 0;
   int ghost_count_ = 0;
   std::vector<int> keep_, slot_index_, send_shift_;
   std::vector<std::int32_t> send_slots_;

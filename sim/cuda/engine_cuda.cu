@@ -16,6 +16,7 @@
 #include "sim/cuda/engine_cuda.h"
 #include "sim/kernels.h"
 #include "sim/simulation.h"
+#include "sim/stepper.h"
 #include "sim/terms.h"
 #include "sim/watchdog.h"
 
@@ -91,16 +92,11 @@ inline int blocks_for(int n) {
   return n <= 0 ? 1 : (n + kBlock - 1) / kBlock;
 }
 
-template <class Real, bool kVelocityEstimate>
-__global__ void kick_drift_kernel(StepView<Real> v) {
+// The step sequence's per-particle passes (sim/stepper.h): body(v, i), one thread per particle.
+template <class Real, class Body>
+__global__ void for_each_kernel(StepView<Real> v, Body body) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) kick_drift<Real, kVelocityEstimate>(v, i);
-}
-
-template <class Real>
-__global__ void kick_kernel(StepView<Real> v) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) kick(v, i);
+  if (i < v.n) body(v, i);
 }
 
 template <class Real>
@@ -137,16 +133,11 @@ __device__ MESO_INLINE NeighbourStash thread_stash() {
   return NeighbourStash{stash_slots + threadIdx.x, static_cast<int>(blockDim.x)};
 }
 
-template <class Real, class DensityKernel>
-__global__ void density_kernel(StepView<Real> v) {
+// The same with the thread's neighbour stash: body(v, i, stash), launched with kStashBytes.
+template <class Real, class Body>
+__global__ void for_each_stashed_kernel(StepView<Real> v, Body body) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) density_of_particle<Real, DensityKernel>(v, i);
-}
-
-template <class Real, class DensityKernel>
-__global__ void density_and_bvf_kernel(StepView<Real> v) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) density_and_bvf_of_particle<Real, DensityKernel>(v, i);
+  if (i < v.n) body(v, i, thread_stash());
 }
 
 // The wall model's corrector. Decisions read phi, the particle's own velocity and the positions
@@ -426,12 +417,6 @@ __global__ void moved_kernel(StepView<Real> v, const Real* x0, const Real* y0, c
   if (i < v.n && displacement2(v, x0, y0, z0, i) > limit2) *moved = 1;
 }
 
-template <class Real, class C, class T, class B, class W>
-__global__ void force_kernel(StepView<Real> v) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) force_on_particle<Real, C, T, B, W>(v, i, thread_stash());
-}
-
 // Virial of each particle, summed per thread block (fixed tree order, so the result is the same
 // every run); the host adds the per-block partials in block order. 18 doubles per block instead
 // of per particle keeps the stress observable within the memory budget.
@@ -506,10 +491,13 @@ __global__ void bin_kernel(StepView<Real> v, BinView<Real> b, double* sums) {
 }
 
 template <class Real, class Terms>
-class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
+class CudaEngine final : public Engine<Real>,
+                         public DomainStore<Real>,
+                         private Stepper<Real, Terms, CudaEngine<Real, Terms>> {
+  using Steps = Stepper<Real, Terms, CudaEngine<Real, Terms>>;
+  friend Steps;
   using C = typename Terms::conservative;
   using T = typename Terms::thermostat;
-  using B = typename Terms::body_force;
   using W = typename Terms::wall_model;
 
  public:
@@ -529,21 +517,20 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   const char* name() const override { return "cuda"; }
 
   void initialize(HostState<Real>& host, StepHooks<Real>* hooks) override {
-    hooks_ = hooks;
+    this->attach_hooks(hooks);
     upload(host);
-    compute_forces();
-    if (nslabs_ > 0) slab_forces(false);
+    this->initial_forces();
     check(cudaDeviceSynchronize(), "initial forces");
   }
 
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>* hooks) override {
-    hooks_ = hooks;
+    this->attach_hooks(hooks);
     upload(host);
     corrected_ = wall_corrections;
     // A single-rank checkpoint is already sorted (stable sort: no particle moves); a gathered one
     // (decomposed run) is in the original order, so the last forces move with their particles.
-    sort(true);
+    this->sort(true);
     check(cudaDeviceSynchronize(), "restore");
   }
 
@@ -597,10 +584,11 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   // The slabs' total forces from the last force pass, then (kick) their second half kick. A
   // decomposed run sums them over the ranks on the host in between.
   void slab_forces(bool kick) {
+    if (nslabs_ == 0) return;
     const int g = blocks_for(n_);
     slab_partials_.set_size(static_cast<size_t>(nslabs_) * g);
     slab_partials_kernel<Real><<<g, kBlock>>>(view(), slab_partials_.get());
-    if (!hooks_) {
+    if (!this->hooks().distributed()) {
       slab_finish_kernel<Real><<<1, 256>>>(slab_partials_.get(), g, slab_bodies_.get(), nslabs_,
                                            static_cast<double>(dt_), kick, slab_velocity_.get());
       return;
@@ -609,33 +597,14 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     slab_sums_kernel<<<1, 256>>>(slab_partials_.get(), g, nslabs_, slab_sums_.get());
     std::vector<double> sums;
     slab_sums_.download(sums);
-    hooks_->sum(sums.data(), nslabs_);
+    this->hooks().sum(sums.data(), nslabs_);
     slab_sums_.upload(sums);
     slab_apply_kernel<Real><<<1, kMaxRigidSlabs>>>(slab_sums_.get(), slab_bodies_.get(), nslabs_,
                                                    static_cast<double>(dt_), kick,
                                                    slab_velocity_.get());
   }
 
-  void advance(std::uint64_t steps) override {
-    for (std::uint64_t k = 0; k < steps; ++k) {
-      mark(0);
-      if (nslabs_ > 0)
-        slab_half_kick_kernel<Real><<<1, kMaxRigidSlabs>>>(
-            slab_bodies_.get(), nslabs_, static_cast<double>(dt_), slab_half_velocity_.get());
-      kick_drift_kernel<Real, T::enabled><<<blocks_for(n_), kBlock>>>(view());
-      ++step_;
-      compute_forces();  // a decomposed run's particle count changes here
-      if (nslabs_ > 0) slab_forces(true);
-      mark(4);
-      kick_kernel<<<blocks_for(n_), kBlock>>>(view());
-      if (!host_->injections.empty()) inject();
-      mark(5);
-      if (this->watchdog_.enabled) watchdog_step();
-      if (profile_) accumulate();
-    }
-    check(cudaGetLastError(), "step kernels");
-    if (this->watchdog_.enabled && steps > 0) watchdog_poll(true);
-  }
+  void advance(std::uint64_t steps) override { this->run_steps(steps); }
 
   void set_dt(Real dt) override { dt_ = dt; }
 
@@ -643,6 +612,7 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   // through pinned memory (reading the copy enqueued at the previous poll, long done by then) and
   // synchronously at the end of run().
   void watchdog_step() {
+    if (!this->watchdog_.enabled) return;
     if (!watchdog_host_) {
       watchdog_record_.upload(std::vector<WatchdogRecord>(1));
       check(cudaMallocHost(&watchdog_host_, sizeof(WatchdogRecord)), "cudaMallocHost");
@@ -720,10 +690,10 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
         check(cudaMemsetAsync(injection_best_.get(), 0xFF, sizeof(std::uint64_t)), "pick reset");
         auto* best = reinterpret_cast<unsigned long long*>(injection_best_.get());
         injection_key_kernel<<<g, kBlock>>>(v, plan.view, pick, best);
-        if (hooks_) {  // the smallest key over the ranks
+        if (this->hooks().distributed()) {  // the smallest key over the ranks
           std::vector<std::uint64_t> b;
           injection_best_.download(b);
-          b[0] = hooks_->min(b[0]);
+          b[0] = this->hooks().min(b[0]);
           injection_best_.upload(b);
         }
         injection_apply_kernel<<<g, kBlock>>>(
@@ -818,78 +788,66 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
     return v;
   }
 
-  // Stable sort of the storage by cell, then density (and the wall model's phi and corrector)
-  // and forces for step_.
-  void compute_forces() {
-    if (hooks_) hooks_->exchange(*this);
-    const int g = blocks_for(n_);
-    mark(1);
-    if (sort_due()) sort();
-    mark(2);
-    local_sums();
-    if (hooks_) hooks_->sync_sums(*this);
-    if constexpr (W::enabled) {
-      // The re-sort decision needs the count on the host: one small synchronising copy per step,
-      // paid only by scenes with the wall model.
-      check(cudaMemsetAsync(count_.get(), 0, sizeof(unsigned int)), "count reset");
-      correction_kernel<Real, T::enabled><<<g, kBlock>>>(view(), count_.get());
-      check(cudaMemcpy(count_host_, count_.get(), sizeof(unsigned int), cudaMemcpyDeviceToHost),
-            "correction count");
-      corrected_ += *count_host_;
-      if (hooks_ ? hooks_->any(*count_host_ > 0) : *count_host_ > 0) {
-        if (hooks_) hooks_->refresh_ghosts(*this);
-        sort();
-        local_sums();
-        if (hooks_) hooks_->sync_sums(*this);
-      }
-    }
-    mark(3);
-    force_kernel<Real, C, T, B, W><<<g, kBlock, kStashBytes>>>(view());
+  // ---- The backend primitives of the step sequence (sim/stepper.h). ----
+  HostState<Real>& host_state() { return *host_; }
+  void next_step() { ++step_; }
+  void poll_setup() {}
+
+  template <class Body>
+  void for_each(const StepView<Real>& v, Body body) {
+    for_each_kernel<<<blocks_for(v.n), kBlock>>>(v, body);
+  }
+  template <class Body>
+  void for_each_stashed(const StepView<Real>& v, Body body) {
+    for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, body);
   }
 
-  // Every step, or with a reorder interval when it is up or a particle has moved more than
-  // skin / 2 since the last sort (one flag read back per step: only runs with an interval pay).
-  bool sort_due() {
-    const int every = host_->reorder_every;
-    if (every <= 1 || ++steps_since_sort_ >= every || x0_.size() != static_cast<size_t>(n_))
-      return true;
-    const Real half = Real(0.5) * host_->skin;
+  // The wall model's corrector. The re-sort decision needs the count on the host: one small
+  // synchronising copy per step, paid only by scenes with the wall model.
+  unsigned int correct_penetrations() {
+    check(cudaMemsetAsync(count_.get(), 0, sizeof(unsigned int)), "count reset");
+    correction_kernel<Real, T::enabled><<<blocks_for(n_), kBlock>>>(view(), count_.get());
+    check(cudaMemcpy(count_host_, count_.get(), sizeof(unsigned int), cudaMemcpyDeviceToHost),
+          "correction count");
+    corrected_ += *count_host_;
+    return *count_host_;
+  }
+
+  // Reorder interval only: the positions at the last sort, and whether any particle has moved
+  // beyond sqrt(limit2) since (one flag read back per step: only runs with an interval pay).
+  bool sort_positions_stale() const { return x0_.size() != static_cast<size_t>(n_); }
+  void remember_sort_positions() {
+    for (auto [from, to] : {std::pair{&x_, &x0_}, std::pair{&y_, &y0_}, std::pair{&z_, &z0_}}) {
+      to->set_size(static_cast<size_t>(n_));
+      check(cudaMemcpyAsync(to->get(), from->get(), static_cast<size_t>(n_) * sizeof(Real),
+                            cudaMemcpyDeviceToDevice),
+            "sort positions");
+    }
+  }
+  bool any_moved_beyond(Real limit2) {
     moved_.set_size(1);
     check(cudaMemsetAsync(moved_.get(), 0, sizeof(int)), "moved reset");
-    moved_kernel<<<blocks_for(n_), kBlock>>>(view(), x0_.get(), y0_.get(), z0_.get(), half * half,
+    moved_kernel<<<blocks_for(n_), kBlock>>>(view(), x0_.get(), y0_.get(), z0_.get(), limit2,
                                              moved_.get());
     std::vector<int> moved;
     moved_.download(moved);
     return moved[0] != 0;
   }
 
-  void sort(bool carry_forces = false) {
-    sort_by_cell(carry_forces);
-    if (host_->reorder_every > 1) {
-      for (auto [from, to] : {std::pair{&x_, &x0_}, std::pair{&y_, &y0_}, std::pair{&z_, &z0_}}) {
-        to->set_size(static_cast<size_t>(n_));
-        check(cudaMemcpyAsync(to->get(), from->get(), static_cast<size_t>(n_) * sizeof(Real),
-                              cudaMemcpyDeviceToDevice),
-              "sort positions");
-      }
-      steps_since_sort_ = 0;
-    }
+  void slab_half_kicks() {
+    if (nslabs_ > 0)
+      slab_half_kick_kernel<Real><<<1, kMaxRigidSlabs>>>(
+          slab_bodies_.get(), nslabs_, static_cast<double>(dt_), slab_half_velocity_.get());
   }
 
-  void local_sums() {
-    const int g = blocks_for(n_);
-    const StepView<Real> v = view();
-    if constexpr (W::enabled) {
-      using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
-      density_and_bvf_kernel<Real, K><<<g, kBlock>>>(v);
-    } else if constexpr (C::needs_density) {
-      density_kernel<Real, typename C::density_kernel><<<g, kBlock>>>(v);
-    }
+  void finish_steps(std::uint64_t steps) {
+    check(cudaGetLastError(), "step kernels");
+    if (this->watchdog_.enabled && steps > 0) watchdog_poll(true);
   }
 
   // carry_forces: forces, densities and phi move with their particles too (a restored state; a
   // step's sort comes before its force pass, which writes them anew).
-  void sort_by_cell(bool carry_forces = false) {
+  void sort_by_cell(bool carry_forces) {
     const int g = blocks_for(n_);
     if (host_->grid.count() != ncells_) {  // a decomposed run re-balanced: a new cell grid
       ncells_ = host_->grid.count();
@@ -1098,9 +1056,12 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   std::uint64_t wall_corrections() const override { return corrected_; }
 
  private:
-  // Profiling: events 0..5 bound kick_drift | sort | density | force | kick.
-  void mark(int k) {
-    if (profile_) check(cudaEventRecord(events_[k]), "cudaEventRecord");
+  // Profiling: events 0..5 bound kick_drift | sort | density | force | kick; the step's times are
+  // added up at its end.
+  void mark(StepPhase phase) {
+    if (!profile_) return;
+    check(cudaEventRecord(events_[static_cast<int>(phase)]), "cudaEventRecord");
+    if (phase == StepPhase::End) accumulate();
   }
   void accumulate() {
     check(cudaEventSynchronize(events_[5]), "profile sync");
@@ -1164,8 +1125,7 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   DeviceBuffer<double> slab_partials_;
   DeviceBuffer<unsigned int> count_;
   DeviceBuffer<std::uint64_t> injection_best_, injection_counts_;  // injection only
-  // A decomposed run's (sim/domain) hooks and exchange buffers; null and empty otherwise.
-  StepHooks<Real>* hooks_ = nullptr;
+  // A decomposed run's (sim/domain) exchange buffers; empty otherwise.
   int ghost_count_ = 0, send_count_ = 0;
   DeviceBuffer<unsigned char> flag_a_, flag_b_, select_temp_;
   DeviceBuffer<int> selected_, slot_index_, send_box_;
@@ -1179,7 +1139,6 @@ class CudaEngine final : public Engine<Real>, public DomainStore<Real> {
   // Reorder interval only: the positions at the last sort, the steps since, the moved flag.
   DeviceBuffer<Real> x0_, y0_, z0_;
   DeviceBuffer<int> moved_;
-  int steps_since_sort_ = 0;
   unsigned int* count_host_ = nullptr;
   std::uint64_t corrected_ = 0;
   bool profile_ = false;

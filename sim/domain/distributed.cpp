@@ -99,6 +99,8 @@ class DecomposedDomain final : public Domain<Real>, public StepHooks<Real> {
   }
 
   // ---- StepHooks: called by the engine inside every step, on every rank. ----
+  bool distributed() const override { return true; }
+
   void exchange(DomainStore<Real>& store) override {
     const int P = comm_->size();
     std::vector<MigrantRecord<Real>> leavers;

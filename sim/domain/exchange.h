@@ -105,6 +105,9 @@ class StepHooks {
   virtual bool any(bool local) = 0;                           // logical or over the ranks
   virtual void sum(double* values, int count) = 0;            // in place, over the ranks
   virtual std::uint64_t min(std::uint64_t value) = 0;         // over the ranks
+  // False for a run on one rank (SerialHooks, sim/stepper.h), whose reductions are the identity:
+  // a backend may then keep a reduction on the device instead of taking it to the host.
+  virtual bool distributed() const = 0;
 };
 
 }  // namespace mesorock::sim

@@ -1,0 +1,188 @@
+#pragma once
+// The one step sequence of every backend (Cabana-style backend policy). Stepper<Real, Terms,
+// Backend> writes the velocity-Verlet step, the force computation and the re-sort decision once;
+// the engine (Backend, CRTP) supplies the few primitives that truly differ between a CPU loop and
+// CUDA kernels:
+//
+//   HostState<Real>& host_state()          the run's parameters (and, on the CPU, its storage)
+//   StepView<Real> view()                  the storage as the kernel bodies see it
+//   for_each(view, body)                   body(view, i) for every stored particle, in parallel
+//   for_each_stashed(view, body)           the same, with a neighbour stash (sim/kernels.h)
+//   sort_by_cell(carry_forces)             the stable cell sort of the storage
+//   sort_positions_stale(), remember_sort_positions(), any_moved_beyond(limit2)
+//   correct_penetrations()                 the wall model's corrector; returns the count
+//   slab_half_kicks(), slab_forces(kick)   the rigid slabs' reductions and kicks
+//   inject(), watchdog_step()              per-step events, after the second kick
+//   next_step(), finish_steps(steps), mark(phase), poll_setup()
+//
+// A new phase of the step is written here, once. The kernel bodies stay in sim/kernels.h; a
+// run on one rank uses SerialHooks, so the decomposition's phases are plain calls, never a
+// branch on a null pointer.
+#include <cstdint>
+#include <type_traits>
+
+#include "sim/domain/exchange.h"
+#include "sim/hd.h"
+#include "sim/kernels.h"
+#include "sim/state.h"
+
+namespace mesorock::sim {
+
+// The domain phases of a run on one rank: no ghosts, no migration, and each reduction over the
+// ranks returns its argument.
+template <class Real>
+class SerialHooks final : public StepHooks<Real> {
+ public:
+  void exchange(DomainStore<Real>&) override {}
+  void sync_sums(DomainStore<Real>&) override {}
+  void refresh_ghosts(DomainStore<Real>&) override {}
+  bool any(bool local) override { return local; }
+  void sum(double*, int) override {}
+  std::uint64_t min(std::uint64_t value) override { return value; }
+  bool distributed() const override { return false; }
+};
+
+// Where the profiler's marks stand in a step (the CUDA engine times the passes between them).
+enum class StepPhase : int { KickDrift = 0, Sort = 1, Sums = 2, Forces = 3, Kick = 4, End = 5 };
+
+// ---- Per-particle pass bodies: the functions of sim/kernels.h as functors for for_each. ----
+
+template <class Real, bool kVelocityEstimate>
+struct KickDriftPass {
+  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const {
+    kick_drift<Real, kVelocityEstimate>(v, i);
+  }
+};
+
+template <class Real>
+struct KickPass {
+  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const { kick(v, i); }
+};
+
+template <class Real, class DensityKernel>
+struct DensityPass {
+  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const {
+    density_of_particle<Real, DensityKernel>(v, i);
+  }
+};
+
+// DensityKernel is void without a many-body term: phi alone.
+template <class Real, class DensityKernel>
+struct DensityAndBvfPass {
+  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const {
+    density_and_bvf_of_particle<Real, DensityKernel>(v, i);
+  }
+};
+
+template <class Real, class Terms>
+struct ForcePass {
+  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i, NeighbourStash stash) const {
+    force_on_particle<Real, typename Terms::conservative, typename Terms::thermostat,
+                      typename Terms::body_force, typename Terms::wall_model>(v, i, stash);
+  }
+};
+
+template <class Real, class Terms, class Backend>
+class Stepper {
+ protected:
+  using C = typename Terms::conservative;
+  using W = typename Terms::wall_model;
+
+  // The decomposition's hooks, or the serial ones when `hooks` is null.
+  void attach_hooks(StepHooks<Real>* hooks) { hooks_ = hooks ? hooks : &serial_hooks_; }
+  StepHooks<Real>& hooks() const { return *hooks_; }
+
+  // Forces (and the slabs' forces) of the current step: the start of a run.
+  void initial_forces() {
+    compute_forces();
+    backend().slab_forces(false);
+  }
+
+  // Velocity Verlet (Groot & Warren 1997 with lambda = 1/2): half kick and drift, forces of the
+  // new positions, second half kick; then this step's injections and the watchdog.
+  void run_steps(std::uint64_t steps) {
+    Backend& b = backend();
+    for (std::uint64_t k = 0; k < steps; ++k) {
+      b.mark(StepPhase::KickDrift);
+      b.slab_half_kicks();
+      b.for_each(b.view(), KickDriftPass<Real, Terms::thermostat::enabled>{});
+      b.next_step();
+      compute_forces();  // a decomposed run's particle count may change here
+      b.slab_forces(true);
+      b.mark(StepPhase::Kick);
+      b.for_each(b.view(), KickPass<Real>{});
+      if (!b.host_state().injections.empty()) b.inject();
+      b.mark(StepPhase::End);
+      b.watchdog_step();  // throws on a blow-up (the GPU when it polls)
+    }
+    b.finish_steps(steps);
+  }
+
+  // Cell list, density (only with a many-body term), the wall model's phi and corrector (only
+  // with it), forces; for the current step. Decomposed: migration and ghosts first, the ghosts'
+  // sums after the density pass.
+  void compute_forces() {
+    Backend& b = backend();
+    hooks_->exchange(b);
+    b.mark(StepPhase::Sort);
+    if (sort_due()) sort();
+    b.mark(StepPhase::Sums);
+    b.poll_setup();
+    local_sums();
+    b.poll_setup();
+    hooks_->sync_sums(b);
+    if constexpr (W::enabled) {
+      const bool corrected = b.correct_penetrations() > 0;
+      if (hooks_->any(corrected)) {
+        // Corrected particles moved: sort and sum again so the cell list and rho stay exact
+        // (and, decomposed, their ghosts follow them first).
+        hooks_->refresh_ghosts(b);
+        sort();
+        local_sums();
+        hooks_->sync_sums(b);
+      }
+    }
+    b.mark(StepPhase::Forces);
+    b.for_each_stashed(b.view(), ForcePass<Real, Terms>{});
+  }
+
+  // The stable cell sort; with a reorder interval, also the positions it was made at.
+  void sort(bool carry_forces = false) {
+    Backend& b = backend();
+    b.sort_by_cell(carry_forces);
+    if (b.host_state().reorder_every > 1) {
+      b.remember_sort_positions();
+      steps_since_sort_ = 0;
+    }
+  }
+
+ private:
+  Backend& backend() { return static_cast<Backend&>(*this); }
+
+  // Every step, or with a reorder interval (HostState::reorder_every) when the interval is up or a
+  // particle has moved more than skin / 2 since the last sort.
+  bool sort_due() {
+    Backend& b = backend();
+    const HostState<Real>& h = b.host_state();
+    if (h.reorder_every <= 1 || ++steps_since_sort_ >= h.reorder_every || b.sort_positions_stale())
+      return true;
+    const Real half = Real(0.5) * h.skin;
+    return b.any_moved_beyond(half * half);
+  }
+
+  void local_sums() {
+    Backend& b = backend();
+    if constexpr (W::enabled) {
+      using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
+      b.for_each(b.view(), DensityAndBvfPass<Real, K>{});
+    } else if constexpr (C::needs_density) {
+      b.for_each(b.view(), DensityPass<Real, typename C::density_kernel>{});
+    }
+  }
+
+  SerialHooks<Real> serial_hooks_;
+  StepHooks<Real>* hooks_ = &serial_hooks_;
+  int steps_since_sort_ = 0;
+};
+
+}  // namespace mesorock::sim
