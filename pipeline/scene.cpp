@@ -570,40 +570,23 @@ void read_walls(const Context& c, Table& top, Scene& s) {
   if (model != "li2018")
     fail(c, "walls.model", "must be \"li2018\" or \"none\" (got " + in_quotes(model) + ")");
   w.enabled = true;
-  for (const std::string& name : type_names_at(c, s, t)) {
-    const int type = s.model.type_index(name);
-    if (!s.model.types[static_cast<size_t>(type)].frozen)
-      fail(c, "walls.types", "type " + in_quotes(name) + " is not frozen (walls must be frozen)");
-    w.wall_types |= 1u << type;
-  }
-  if (s.model.wall_mask() == 0)
-    fail(c, "walls.types", "no frozen type to act as wall (give types or freeze a type)");
-  if (auto n = t.number("wall_density")) {
-    if (!(*n > 0)) fail(c, "walls.wall_density", "must be positive (got " + num(*n) + ")");
-    w.wall_density = *n;
-  }
-  if (auto phi = t.number("penetration_threshold")) {
-    if (!(*phi > 0 && *phi < 1))
-      fail(c, "walls.penetration_threshold", "must be in (0, 1) (got " + num(*phi) + ")");
-    w.penetration_threshold = *phi;
-  }
+  for (const std::string& name : type_names_at(c, s, t))
+    w.wall_types |= 1u << s.model.type_index(name);
+  if (auto n = t.number("wall_density")) w.wall_density = *n;
+  if (auto phi = t.number("penetration_threshold")) w.penetration_threshold = *phi;
   if (const toml::node* n = t.get("reflection"))
     w.reflection = choice_at<sim::WallReflection>(
         c, *n, "walls.reflection",
         {{"li2018", sim::WallReflection::Li2018}, {"specular", sim::WallReflection::Specular}});
-  if (auto f = t.number("slip_factor")) {
-    if (!(*f >= 0 && *f <= 1))
-      fail(c, "walls.slip_factor", "must be in [0, 1], 1 = no slip (got " + num(*f) + ")");
-    w.slip_factor = *f;
+  if (auto f = t.number("slip_factor")) w.slip_factor = *f;
+  if (auto k = t.number("max_dissipation_factor")) w.max_dissipation_factor = *k;
+  // The sim checks the values (every caller of make_simulation goes through the same check); its
+  // message names the key, this file names the scene.
+  try {
+    sim::validate_wall_model(s.model);
+  } catch (const ConfigError& e) {
+    throw ConfigError(c.file + ": " + e.what());
   }
-  if (auto k = t.number("max_dissipation_factor")) {
-    if (!(*k >= 1)) fail(c, "walls.max_dissipation_factor", "must be >= 1 (got " + num(*k) + ")");
-    w.max_dissipation_factor = *k;
-  }
-  if (!s.model.thermostat)
-    fail(c, "walls.model", "needs model.thermostat = true (no slip is imposed by the dissipation)");
-  if (s.model.body_force_profile == sim::BodyForceProfile::Reversed)
-    fail(c, "walls.model", "is not available with model.body_force_profile = \"reversed\"");
   t.finish();
 }
 
@@ -696,14 +679,15 @@ void read_slabs(const Context& c, Table& top, Scene& s) {
     const std::string name = t.require_string("type");
     r.type = s.model.type_index(name);
     if (r.type < 0) fail(c, t.key("type"), "unknown type " + in_quotes(name));
-    if (s.model.types[static_cast<size_t>(r.type)].frozen)
-      fail(c, t.key("type"), "type " + in_quotes(name) + " is frozen (a slab moves)");
-    for (const auto& other : s.model.rigid_slabs)
-      if (other.type == r.type) fail(c, t.key("type"), in_quotes(name) + " is already a slab");
     r.axis = axis_at(c, t.require("axis"), t.key("axis"));
     r.applied_pressure = t.require_number("pressure");
-    t.finish();
     s.model.rigid_slabs.push_back(r);
+    try {  // the sim's check, as for [walls]
+      sim::validate_rigid_slab(s.model, i);
+    } catch (const ConfigError& e) {
+      throw ConfigError(c.file + ": " + e.what());
+    }
+    t.finish();
   }
 }
 

@@ -1,6 +1,7 @@
 // The checks of make_simulation's inputs, one per spec of the model, in the order they run: the
 // first problem found is the one reported (ConfigError).
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <sstream>
 #include <tuple>
@@ -14,6 +15,15 @@ namespace {
 
 void check_finite(double v, const std::string& what) {
   if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
+}
+
+// Shortest round-trip text of v, as the scene reader prints it ("nan", "inf" spelled out).
+std::string number_text(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
 }
 
 // The types, the model's scalars, the time step and the pair table.
@@ -80,33 +90,6 @@ void check_box(const BoxSpec& box) {
   }
 }
 
-// WallModelSpec: its parameters, and frozen wall particles and the thermostat to act through.
-void check_wall_model(const Model& m) {
-  if (!m.wall_model.enabled) return;
-  const WallModelSpec& w = m.wall_model;
-  check_finite(w.wall_density, "wall model wall density");
-  if (!(w.wall_density > 0)) throw ConfigError("wall model wall density must be positive");
-  check_finite(w.penetration_threshold, "wall model penetration threshold");
-  if (!(w.penetration_threshold > 0 && w.penetration_threshold < 1))
-    throw ConfigError("wall model penetration threshold must be in (0, 1)");
-  check_finite(w.slip_factor, "wall model slip factor");
-  if (!(w.slip_factor >= 0 && w.slip_factor <= 1))
-    throw ConfigError("wall model slip factor must be in [0, 1] (1 = no slip)");
-  check_finite(w.max_dissipation_factor, "wall model max dissipation factor");
-  if (!(w.max_dissipation_factor >= 1))
-    throw ConfigError("wall model max dissipation factor must be at least 1");
-  const std::uint32_t mask = m.wall_mask();
-  if (mask == 0)
-    throw ConfigError("the wall model needs wall particles: no type is frozen or named as wall");
-  for (int t = 0; t < m.ntypes(); ++t)
-    if (((mask >> t) & 1u) && !m.types[t].frozen)
-      throw ConfigError("wall type " + m.types[t].name +
-                        " is not frozen (the wall model supports frozen walls only)");
-  if (!m.thermostat)
-    throw ConfigError(
-        "the wall model needs the thermostat (its no-slip condition is a dissipation)");
-}
-
 void check_virtual_walls(const Model& m, const BoxSpec& box) {
   if (m.virtual_walls.size() > static_cast<size_t>(kMaxVirtualWalls))
     throw ConfigError("at most " + std::to_string(kMaxVirtualWalls) + " virtual walls");
@@ -127,19 +110,11 @@ void check_rigid_slabs(const Model& m, const ParticleSet& p) {
   if (m.rigid_slabs.size() > static_cast<size_t>(kMaxRigidSlabs))
     throw ConfigError("at most " + std::to_string(kMaxRigidSlabs) + " rigid slabs");
   for (size_t k = 0; k < m.rigid_slabs.size(); ++k) {
-    const RigidSlabSpec& r = m.rigid_slabs[k];
-    if (r.type < 0 || r.type >= m.ntypes()) throw ConfigError("rigid slab of an unknown type");
-    const std::string name = "rigid slab " + m.types[static_cast<size_t>(r.type)].name;
-    if (m.types[static_cast<size_t>(r.type)].frozen)
-      throw ConfigError(name + ": a slab type must not be frozen (it moves as a rigid body)");
-    if (m.wall_model.enabled && ((m.wall_mask() >> r.type) & 1u))
-      throw ConfigError(name + ": a slab type cannot also be a wall of the wall model");
-    if (r.axis < 0 || r.axis > 2) throw ConfigError(name + ": axis must be 0, 1 or 2");
-    check_finite(r.applied_pressure, name + " applied pressure");
-    for (size_t q = 0; q < k; ++q)
-      if (m.rigid_slabs[q].type == r.type) throw ConfigError(name + ": listed twice");
-    if (std::count(p.type.begin(), p.type.end(), r.type) == 0)
-      throw ConfigError(name + ": the slab has no particles");
+    validate_rigid_slab(m, k);
+    const int type = m.rigid_slabs[k].type;
+    if (std::count(p.type.begin(), p.type.end(), type) == 0)
+      throw ConfigError("slabs[" + std::to_string(k) + "].type: type \"" +
+                        m.types[static_cast<size_t>(type)].name + "\" has no particles");
   }
 }
 
@@ -204,6 +179,56 @@ void check_particles(const Model& m, const BoxSpec& box, const ParticleSet& p, s
 
 // The messages name the scene keys (pipeline/scene.cpp prefixes its file name): the scene reader
 // checks its [[injection]] blocks through this function.
+void validate_wall_model(const Model& m) {
+  if (!m.wall_model.enabled) return;
+  const WallModelSpec& w = m.wall_model;
+  auto refuse = [](const std::string& key, const std::string& problem) {
+    throw ConfigError("walls." + key + ": " + problem);
+  };
+  if (!(w.wall_density > 0) || !std::isfinite(w.wall_density))
+    refuse("wall_density", "must be positive and finite (got " + number_text(w.wall_density) + ")");
+  if (!(w.penetration_threshold > 0 && w.penetration_threshold < 1))
+    refuse("penetration_threshold",
+           "must be in (0, 1) (got " + number_text(w.penetration_threshold) + ")");
+  if (!(w.slip_factor >= 0 && w.slip_factor <= 1))
+    refuse("slip_factor",
+           "must be in [0, 1], 1 = no slip (got " + number_text(w.slip_factor) + ")");
+  if (!(w.max_dissipation_factor >= 1) || !std::isfinite(w.max_dissipation_factor))
+    refuse("max_dissipation_factor",
+           "must be >= 1 and finite (got " + number_text(w.max_dissipation_factor) + ")");
+  const std::uint32_t mask = m.wall_mask();
+  for (int t = 0; t < m.ntypes() && t < 32; ++t)
+    if (((mask >> t) & 1u) && !m.types[static_cast<size_t>(t)].frozen)
+      refuse("types", "type \"" + m.types[static_cast<size_t>(t)].name +
+                          "\" is not frozen (walls must be frozen)");
+  if (mask == 0) refuse("types", "no frozen type to act as wall (give types or freeze a type)");
+  if (!m.thermostat)
+    refuse("model", "needs model.thermostat = true (no slip is imposed by the dissipation)");
+  if (m.body_force_profile == BodyForceProfile::Reversed)
+    refuse("model", "is not available with model.body_force_profile = \"reversed\"");
+}
+
+void validate_rigid_slab(const Model& m, size_t k) {
+  const RigidSlabSpec& r = m.rigid_slabs.at(k);
+  const std::string key = "slabs[" + std::to_string(k) + "].";
+  auto refuse = [&](const std::string& what, const std::string& problem) {
+    throw ConfigError(key + what + ": " + problem);
+  };
+  if (r.type < 0 || r.type >= m.ntypes())
+    refuse("type", "type index " + std::to_string(r.type) + " out of range");
+  const std::string name = "\"" + m.types[static_cast<size_t>(r.type)].name + "\"";
+  if (m.types[static_cast<size_t>(r.type)].frozen)
+    refuse("type", "type " + name + " is frozen (a slab moves)");
+  if (m.wall_model.enabled && ((m.wall_mask() >> r.type) & 1u))
+    refuse("type", "type " + name + " is a wall of the wall model (a slab moves)");
+  for (size_t q = 0; q < k; ++q)
+    if (m.rigid_slabs[q].type == r.type) refuse("type", name + " is already a slab");
+  if (r.axis < 0 || r.axis > 2)
+    refuse("axis", "must be 0, 1 or 2 (got " + std::to_string(r.axis) + ")");
+  if (!std::isfinite(r.applied_pressure))
+    refuse("pressure", "must be finite (got " + number_text(r.applied_pressure) + ")");
+}
+
 void validate_injection(const Model& m, const BoxSpec& box, size_t k) {
   const InjectionSpec& q = m.injections.at(k);
   const std::string key = "injection[" + std::to_string(k) + "].";
@@ -249,7 +274,7 @@ void validate_inputs(const Model& m, const BoxSpec& box, const ParticleSet& p, d
   check_types_and_pairs(m, dt);
   check_solid_grid(m.solid, box);
   check_box(box);
-  check_wall_model(m);
+  validate_wall_model(m);
   check_virtual_walls(m, box);
   check_rigid_slabs(m, p);
   check_injections(m, box);
