@@ -13,6 +13,7 @@
 #include "sim/host_reductions.h"
 #include "sim/state.h"
 #include "sim/state_snapshot.h"
+#include "sim/stepper.h"
 #include "sim/terms.h"
 #include "sim/wall_model.h"
 #if defined(MESOROCK_HAVE_CUDA)
@@ -205,7 +206,7 @@ template <class Real>
 std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& opt) {
   if (opt.backend == BackendKind::CPU) return make_cpu_engine<Real>(model, opt.threads);
 #if defined(MESOROCK_HAVE_CUDA)
-  return make_cuda_engine<Real>(model, opt.device, opt.profile);
+  return make_cuda_engine<Real>(model, opt.device, opt.profile, opt.cuda_graphs);
 #else
   throw DeviceError(cuda_unavailable_reason());
 #endif
@@ -228,7 +229,7 @@ class OneRank final : public Domain<Real> {
   explicit OneRank(RankSolver<Real>& solver) : solver_(solver), self_(make_self_communicator()) {}
   bool decomposed() const override { return false; }
   Communicator& comm() const override { return *self_; }
-  StepHooks<Real>* hooks() override { return nullptr; }
+  StepHooks<Real>* hooks() override { return &serial_; }
   void init_state(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
                   const SimulationOptions& opt, const SimulationState* resume) override {
     init_host_state(solver_.host, model, box, p, dt, opt);
@@ -242,6 +243,7 @@ class OneRank final : public Domain<Real> {
  private:
   RankSolver<Real>& solver_;
   std::shared_ptr<Communicator> self_;
+  SerialHooks<Real> serial_;  // no ghosts, no migration; each reduction returns its argument
 };
 
 // The Simulation of one rank or many: this rank's solver and the Domain that says how the box is

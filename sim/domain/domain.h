@@ -54,7 +54,8 @@ class Domain {
   // all of it) and, resuming, with its rows of `resume` (a saved state whose particles are p).
   virtual void init_state(const Model& model, const BoxSpec& box, const ParticleSet& p, double dt,
                           const SimulationOptions& options, const SimulationState* resume) = 0;
-  // What the engine calls between the phases of a step; null on one rank (nothing to exchange).
+  // What the engine calls between the phases of a step; SerialHooks on one rank (nothing to
+  // exchange, identity reductions).
   virtual StepHooks<Real>* hooks() = 0;
   // After the engine's first force pass (or its restore).
   virtual void started() {}
