@@ -25,7 +25,8 @@ strip_json() {
   python3 - "$1" <<'PY'
 import json, sys
 j = json.load(open(sys.argv[1]))
-for k in ("wall_seconds", "run_seconds", "mps", "git_commit", "mesorock_version", "scene_file"):
+for k in ("wall_seconds", "run_seconds", "mps", "mobile_mps", "git_commit", "mesorock_version",
+          "scene_file"):
     j.pop(k, None)
 print(json.dumps(j, sort_keys=True, indent=1))
 PY
