@@ -21,6 +21,7 @@
 #include "sim/init.h"
 #include "sim/memory_budget.h"
 #include "sim/particle_io.h"
+#include "sim/terms.h"
 #include "sim/validate_inputs.h"
 
 namespace mesorock::pipeline {
@@ -150,11 +151,10 @@ int axis_at(const Context& c, const toml::node& n, const std::string& key) {
 class Table {
  public:
   Table(const Context& c, const toml::table& t, std::string path,
-        std::initializer_list<const char*> known)
+        const std::set<std::string>& known)
       : c_(c), t_(t), path_(std::move(path)) {
-    const std::set<std::string> declared(known.begin(), known.end());
     const auto first =
-        first_in_file_order([&](const std::string& k) { return declared.count(k) == 0; });
+        first_in_file_order([&](const std::string& k) { return known.count(k) == 0; });
     if (first) fail(c_, key(*first), "unknown key");
   }
 
@@ -370,14 +370,30 @@ int type_at(const Context& c, const sim::Model& m, const toml::node& n, const st
   return t;
 }
 
+// A [[pairs]] entry as the pair terms read it (sim/terms.h): their errors are the scene's.
+class ScenePairEntry final : public sim::PairEntry {
+ public:
+  ScenePairEntry(const Context& c, Table& t) : c_(c), t_(t) {}
+  double require_number(const char* key) override { return t_.require_number(key); }
+  void forbid(const char* key, const std::string& why) override { t_.forbid(key, why); }
+  [[noreturn]] void reject(const char* key, const std::string& rule, double value) override {
+    fail(c_, t_.key(key), rule + " (got " + num(value) + ")");
+  }
+
+ private:
+  const Context& c_;
+  Table& t_;
+};
+
 void read_pairs(const Context& c, Table& top, Scene& s) {
   sim::Model& m = s.model;
-  const bool mdpd = m.conservative == sim::ConservativeKind::MDPD;
   const auto blocks = top.require_blocks("pairs");
   const int nt = m.ntypes();
+  std::set<std::string> known = sim::pair_term_keys();
+  known.insert("types");
   std::vector<long> given(static_cast<size_t>(nt * nt), -1);  // block index per unordered pair
   for (size_t i = 0; i < blocks.size(); ++i) {
-    Table t(c, *blocks[i], indexed("pairs", i), {"types", "A", "B", "a", "gamma"});
+    Table t(c, *blocks[i], indexed("pairs", i), known);
     const std::string tk = t.key("types");
     const toml::node& tn = t.require("types");
     const toml::array* arr = tn.as_array();
@@ -396,25 +412,8 @@ void read_pairs(const Context& c, Table& top, Scene& s) {
     given[slot] = static_cast<long>(i);
 
     sim::PairSpec p;
-    if (mdpd) {
-      t.forbid("a", "when model.conservative = \"mdpd\" (give A and B)");
-      p.A = t.require_number("A");
-      p.B = t.require_number("B");
-      if (p.B < 0) fail(c, t.key("B"), "must be >= 0 (got " + num(p.B) + ")");
-    } else {
-      t.forbid("A", "when model.conservative = \"dpd\" (give the repulsion a)");
-      t.forbid("B", "when model.conservative = \"dpd\" (give the repulsion a)");
-      p.A = t.require_number("a");
-      if (p.A < 0)
-        fail(c, t.key("a"),
-             "must be >= 0 (a is the DPD repulsion amplitude) (got " + num(p.A) + ")");
-    }
-    if (m.thermostat) {
-      p.gamma = t.require_number("gamma");
-      if (p.gamma < 0) fail(c, t.key("gamma"), "must be >= 0 (got " + num(p.gamma) + ")");
-    } else {
-      t.forbid("gamma", "when model.thermostat = false");
-    }
+    ScenePairEntry entry(c, t);
+    sim::read_pair_terms(m, entry, p);
     t.finish();
     m.set_pair(a, b, p);
   }

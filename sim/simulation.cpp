@@ -52,14 +52,8 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
   s.ntypes = nt;
   s.table.resize(static_cast<size_t>(nt * nt));
   for (int a = 0; a < nt; ++a)
-    for (int b = 0; b < nt; ++b) {
-      const PairSpec& q = model.pair(a, b);
-      PairParams<Real>& t = s.table[static_cast<size_t>(a * nt + b)];
-      t.A = static_cast<Real>(q.A);
-      t.B = static_cast<Real>(q.B);
-      t.gamma = static_cast<Real>(q.gamma);
-      t.sigma = static_cast<Real>(std::sqrt(2.0 * q.gamma * model.kBT));
-    }
+    for (int b = 0; b < nt; ++b)
+      s.table[static_cast<size_t>(a * nt + b)] = pair_params<Real>(model, model.pair(a, b));
   s.body_force.resize(static_cast<size_t>(3 * nt));
   for (int t = 0; t < nt; ++t)
     for (int a = 0; a < 3; ++a)

@@ -8,6 +8,7 @@
 
 #include "mesorock/errors.h"
 #include "sim/engine_factory.h"
+#include "sim/terms.h"
 
 namespace mesorock::sim {
 
@@ -53,8 +54,7 @@ void check_types_and_pairs(const Model& m, double dt) {
       check_finite(q.B, "B");
       check_finite(q.gamma, "gamma");
       if (q.gamma < 0) throw ConfigError("gamma must be >= 0");
-      if (m.conservative == ConservativeKind::DPD && q.B != 0)
-        throw ConfigError("B is only meaningful for the mdpd conservative force");
+      check_pair_terms(m, q);
     }
   }
 }
