@@ -6,7 +6,8 @@
 #   bash scripts/lammps_bench.sh [--particles N] [--steps S] [--threads "1 2"]
 #                                [--precision double|single] [--rockflow BIN]
 #                                [--rockflow-args "ARGS"] [--lammps-src DIR] [--lammps-build DIR]
-#                                [--lammps-warmup W] [--only lammps|mesorock] [--out DIR]
+#                                [--lammps-warmup W] [--repeat R] [--only lammps|mesorock]
+#                                [--out DIR]
 #
 # LAMMPS is built once from Debian's source package (Debian's binary package lacks DPD-MESO) into
 # --lammps-build (env LAMMPS_BUILD, default ~/.cache/mesorock/lammps-build), only the DPD-MESO
@@ -26,14 +27,18 @@
 #
 # LAMMPS's `pair mdpd` and `mdpd/rhosum` have no OPENMP variant, so LAMMPS runs on 1 thread only
 # (its 2-core figure would need an MPI build and mpirun); mesorock runs at each --threads count.
-# Run it under `nice -n 19` on a shared machine. Defaults: 200,000 particles, 60 steps (about 30 s
+# --repeat R runs the whole set R times, the codes alternating, so that a change of the machine's
+# load hits both. The cpu% column is the CPU time the run got over its wall time: LAMMPS's own
+# figure for the timed loop; for rockflow, the whole process's (set-up and warm-up included, so
+# a little below the timed part's), out of 100% per thread. On a shared machine a run that got
+# less than its threads' worth was slowed by other jobs. Run it under `nice -n 19` there. Defaults: 200,000 particles, 60 steps (about 30 s
 # per run on one core of the 2-core development machine), threads "1 2", double precision (as
 # LAMMPS).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 particles=200000 steps=60 threads="1 2" precision=double only="" out="" rockflow_args=""
-lammps_warmup=200
+lammps_warmup=200 repeat=1
 rockflow=${ROCKFLOW:-build/bin/rockflow}
 cache=${XDG_CACHE_HOME:-$HOME/.cache}/mesorock
 lammps_src=${LAMMPS_SRC:-}
@@ -49,9 +54,10 @@ while [ $# -gt 0 ]; do
     --lammps-src) lammps_src=$2; shift 2 ;;
     --lammps-build) lammps_build=$2; shift 2 ;;
     --lammps-warmup) lammps_warmup=$2; shift 2 ;;
+    --repeat) repeat=$2; shift 2 ;;
     --only) only=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n 2,32p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,38p "$0"; exit 0 ;;
     *) echo "lammps_bench.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -59,6 +65,7 @@ case "$only" in ""|lammps|mesorock) ;; *) echo "lammps_bench.sh: --only lammps o
 case "$precision" in double|single) ;; *) echo "lammps_bench.sh: --precision double or single" >&2; exit 2 ;; esac
 [[ "$particles" =~ ^[0-9]+$ && "$particles" -ge 1000 ]] || { echo "lammps_bench.sh: --particles must be an integer >= 1000" >&2; exit 2; }
 [[ "$steps" =~ ^[0-9]+$ && "$steps" -ge 1 ]] || { echo "lammps_bench.sh: --steps must be a positive integer" >&2; exit 2; }
+[[ "$repeat" =~ ^[1-9][0-9]*$ ]] || { echo "lammps_bench.sh: --repeat must be a positive integer" >&2; exit 2; }
 [[ "$lammps_warmup" =~ ^[0-9]+$ ]] || { echo "lammps_bench.sh: --lammps-warmup must be an integer >= 0" >&2; exit 2; }
 for t in $threads; do
   [[ "$t" =~ ^[1-9][0-9]*$ ]] || { echo "lammps_bench.sh: --threads takes positive integers (got $t)" >&2; exit 2; }
@@ -67,20 +74,26 @@ if [ "$only" != lammps ] && [ ! -x "$rockflow" ]; then
   echo "lammps_bench.sh: $rockflow: no rockflow binary (build it, or --rockflow BIN)" >&2
   exit 2
 fi
+if [ "$only" != lammps ] && [ ! -x /usr/bin/time ]; then
+  echo "lammps_bench.sh: /usr/bin/time is needed for rockflow's cpu% (apt-get install time)" >&2
+  exit 2
+fi
 if [ -z "$out" ]; then
   out=$(mktemp -d "${TMPDIR:-/tmp}/lammps_bench.XXXXXX")
 fi
 mkdir -p "$out"
 results="$out/results.tsv"
-printf 'code\tthreads\tparticles\tsteps\tseconds\tmps\tload_before\tload_after\n' > "$results"
-printf '%-9s %7s %10s %6s %9s %8s   %s\n' code threads particles steps seconds "MPS/s" "load average before/after"
+printf 'code\tthreads\tparticles\tsteps\tseconds\tmps\tcpu_percent\tload_before\tload_after\n' > "$results"
+printf '%-9s %7s %10s %6s %9s %8s %6s   %s\n' code threads particles steps seconds "MPS/s" "cpu%" \
+  "load average before/after"
 
 load() { cut -d' ' -f1 /proc/loadavg; }
-row() {  # code threads particles steps seconds load_before load_after
+row() {  # code threads particles steps seconds cpu% load_before load_after
   local mps
   mps=$(awk -v n="$3" -v s="$4" -v t="$5" 'BEGIN { printf "%.4f", n * s / t / 1e6 }')
-  printf '%-9s %7s %10s %6s %9.3f %8s   %s / %s\n' "$1" "$2" "$3" "$4" "$5" "$mps" "$6" "$7"
-  printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$1" "$2" "$3" "$4" "$5" "$mps" "$6" "$7" >> "$results"
+  printf '%-9s %7s %10s %6s %9.3f %8s %6s   %s / %s\n' "$1" "$2" "$3" "$4" "$5" "$mps" "$6" "$7" "$8"
+  printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$1" "$2" "$3" "$4" "$5" "$mps" "$6" "$7" "$8" \
+    >> "$results"
 }
 
 # --- LAMMPS: source, build (once), deck, runs -------------------------------------------------
@@ -157,20 +170,19 @@ run             $steps
 EOF
 }
 
-run_lammps() {
-  build_lammps
-  write_deck
-  local log="$out/lammps_t1.log" before after
+run_lammps() {  # repeat index
+  local log="$out/lammps_t1_r$1.log" before after
   before=$(load)
   OMP_NUM_THREADS=1 "$lammps_build/lmp" -in "$out/in.bulk_mdpd" -log "$log" -screen none
   after=$(load)
   # "Loop time of X on 1 procs for S steps with N atoms": the last one is the timed run.
-  local loop seconds s n
+  local loop seconds s n cpu
   loop=$(grep '^Loop time of' "$log" | tail -1)
+  cpu=$(grep 'CPU use with' "$log" | tail -1 | sed -E 's/^([0-9.]+)%.*/\1/')
   seconds=$(awk '{ print $4 }' <<< "$loop")
   s=$(awk '{ print $9 }' <<< "$loop")
   n=$(awk '{ print $12 }' <<< "$loop")
-  row lammps 1 "$n" "$s" "$seconds" "$before" "$after"
+  row lammps 1 "$n" "$s" "$seconds" "$cpu" "$before" "$after"
   # The timed run's summary: its thermo row (temperature at the end), time per section,
   # neighbour list builds.
   {
@@ -181,28 +193,36 @@ run_lammps() {
       awk -F'|' '{ gsub(/ /, "", $1); gsub(/ /, "", $6); printf "%s %s%%  ", $1, $6 } END { print "" }'
     grep -E '^(Ave neighs/atom|Neighbor list builds|Dangerous builds)' "$log" | tail -3
   } | sed 's/^/  lammps: /' >&2
-  for t in $threads; do
-    [ "$t" = 1 ] || echo "  lammps: $t threads not run: pair mdpd and mdpd/rhosum have no OPENMP variant" >&2
-  done
 }
 
-run_mesorock() {
-  local t json before after seconds s n
+run_mesorock() {  # repeat index
+  local t json before after seconds s n cpu
   for t in $threads; do
     before=$(load)
     # shellcheck disable=SC2086  # rockflow_args is a list of options
-    json=$(OMP_NUM_THREADS=$t "$rockflow" bench --backend cpu --case bulk --particles "$particles" \
-      --steps "$steps" --threads "$t" --precision "$precision" --json $rockflow_args)
+    json=$(OMP_NUM_THREADS=$t /usr/bin/time -f '%e %U %S' -o "$out/mesorock_t${t}_r$1.time" \
+      "$rockflow" bench --backend cpu --case bulk --particles "$particles" --steps "$steps" \
+      --threads "$t" --precision "$precision" --json $rockflow_args)
     after=$(load)
-    echo "$json" > "$out/mesorock_t$t.json"
+    echo "$json" > "$out/mesorock_t${t}_r$1.json"
+    cpu=$(awk '{ printf "%.1f", 100 * ($2 + $3) / $1 }' "$out/mesorock_t${t}_r$1.time")
     seconds=$(sed -E 's/.*"seconds":([^,}]*).*/\1/' <<< "$json")
     s=$(sed -E 's/.*"steps":([^,}]*).*/\1/' <<< "$json")
     n=$(sed -E 's/.*"particles":([^,}]*).*/\1/' <<< "$json")
-    row mesorock "$t" "$n" "$s" "$seconds" "$before" "$after"
+    row mesorock "$t" "$n" "$s" "$seconds" "$cpu" "$before" "$after"
   done
-  echo "  mesorock: $("$rockflow" --version 2>&1 | head -1), $precision precision, $(sed -E 's/.*"pass":"([^"]*)".*/\1/' <<< "$json")" >&2
+  [ "$1" -gt 1 ] || echo "  mesorock: $("$rockflow" --version 2>&1 | head -1), $precision precision, $(sed -E 's/.*"pass":"([^"]*)".*/\1/' <<< "$json")" >&2
 }
 
-[ "$only" = mesorock ] || run_lammps
-[ "$only" = lammps ] || run_mesorock
+if [ "$only" != mesorock ]; then
+  build_lammps
+  write_deck
+  for t in $threads; do
+    [ "$t" = 1 ] || echo "  lammps: $t threads not run: pair mdpd and mdpd/rhosum have no OPENMP variant" >&2
+  done
+fi
+for ((r = 1; r <= repeat; r++)); do
+  [ "$only" = mesorock ] || run_lammps "$r"
+  [ "$only" = lammps ] || run_mesorock "$r"
+done
 echo "results: $results" >&2
