@@ -19,7 +19,7 @@
 # rho = 6.9, rc = 1, dt = 0.01, a cube of N / 6.9 rc^3 with N random particles at kBT = 1, then
 # `steps` timed steps. rockflow bench warms up for steps / 10 (at least 5) steps; LAMMPS for
 # --lammps-warmup steps (default 200 = 2 time units), because its cost depends on the state: the
-# random start heats the liquid (kBT about 10 after 5 steps, back to 1.04 after 200), and while
+# random start heats the liquid (kBT about 12 after 5 steps, back to 1.03 after 200), and while
 # it is hot LAMMPS rebuilds its Verlet lists every step or two instead of every few steps.
 # mesorock sorts by cell and scans the 27 cells every step, whatever the state. What differs
 # between the two decks (density kernel, neighbour lists, random numbers) is listed in
@@ -29,11 +29,11 @@
 # (its 2-core figure would need an MPI build and mpirun); mesorock runs at each --threads count.
 # --repeat R runs the whole set R times, the codes alternating, so that a change of the machine's
 # load hits both. The cpu% column is the CPU time the run got over its wall time: LAMMPS's own
-# figure for the timed loop; for rockflow, the whole process's (set-up and warm-up included, so
-# a little below the timed part's), out of 100% per thread. On a shared machine a run that got
-# less than its threads' worth was slowed by other jobs. Run it under `nice -n 19` there. Defaults: 200,000 particles, 60 steps (about 30 s
-# per run on one core of the 2-core development machine), threads "1 2", double precision (as
-# LAMMPS).
+# figure for the timed loop; for rockflow, the whole process's (set-up and warm-up included),
+# out of 100% per thread. On a shared machine a run that got less than its threads' worth was
+# slowed by other jobs; run it under `nice -n 19` there. Defaults: 200,000 particles, 60 steps
+# (about 30 s per run on one core of the 2-core development machine), threads "1 2", double
+# precision (as LAMMPS).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -57,7 +57,7 @@ while [ $# -gt 0 ]; do
     --repeat) repeat=$2; shift 2 ;;
     --only) only=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n 2,38p "$0"; exit 0 ;;
+    -h|--help) sed -n 2,36p "$0"; exit 0 ;;
     *) echo "lammps_bench.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
