@@ -27,9 +27,6 @@ struct SimulationOptions {
   int threads = 0;       // CPU backend: OpenMP threads; <= 0 means OpenMP's default
   int device = 0;        // CUDA backend: device ordinal
   bool profile = false;  // CUDA backend: time each pass with events (synchronises every step)
-  // CUDA backend: replay a captured step as a CUDA graph (one launch per step instead of some 25)
-  // where no pass needs the host between steps; the numbers are the same either way.
-  bool cuda_graphs = true;
   // Cell-list resolution: cells of rc / cells_per_cutoff, scanned cells_per_cutoff deep. Changes
   // speed and the order of force sums (so results at round-off), not the physics. 1 measured
   // fastest on the GPU (docs/benchmarks.md); the CPU is indifferent.

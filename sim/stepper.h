@@ -100,24 +100,22 @@ class Stepper {
 
   // Velocity Verlet (Groot & Warren 1997 with lambda = 1/2): half kick and drift, forces of the
   // new positions, second half kick; then this step's injections and the watchdog.
-  void one_step() {
-    Backend& b = backend();
-    b.mark(StepPhase::KickDrift);
-    b.slab_half_kicks();
-    b.for_each(b.view(), KickDriftPass<Real, Terms::thermostat::enabled>{});
-    b.next_step();
-    compute_forces();  // a decomposed run's particle count may change here
-    b.slab_forces(true);
-    b.mark(StepPhase::Kick);
-    b.for_each(b.view(), KickPass<Real>{});
-    if (!b.host_state().injections.empty()) b.inject();
-    b.mark(StepPhase::End);
-    b.watchdog_step();  // throws on a blow-up (the GPU when it polls)
-  }
-
   void run_steps(std::uint64_t steps) {
-    for (std::uint64_t k = 0; k < steps; ++k) one_step();
-    backend().finish_steps(steps);
+    Backend& b = backend();
+    for (std::uint64_t k = 0; k < steps; ++k) {
+      b.mark(StepPhase::KickDrift);
+      b.slab_half_kicks();
+      b.for_each(b.view(), KickDriftPass<Real, Terms::thermostat::enabled>{});
+      b.next_step();
+      compute_forces();  // a decomposed run's particle count may change here
+      b.slab_forces(true);
+      b.mark(StepPhase::Kick);
+      b.for_each(b.view(), KickPass<Real>{});
+      if (!b.host_state().injections.empty()) b.inject();
+      b.mark(StepPhase::End);
+      b.watchdog_step();  // throws on a blow-up (the GPU when it polls)
+    }
+    b.finish_steps(steps);
   }
 
   // Cell list, density (only with a many-body term), the wall model's phi and corrector (only

@@ -151,7 +151,6 @@ BenchResult run_bench(const BenchOptions& o) {
   r.reorder_every = o.sim.reorder_every;
   r.skin = o.sim.skin;
   r.decomposed = o.sim.comm && (o.sim.comm->size() > 1 || o.sim.decomposition.force);
-  r.cuda_graphs = o.sim.backend == sim::BackendKind::CUDA && o.sim.cuda_graphs;
   r.threads = o.sim.backend == sim::BackendKind::CPU
                   ? (o.sim.threads > 0 ? o.sim.threads : omp_get_max_threads())
                   : 0;
@@ -187,8 +186,7 @@ std::string format_bench_json(const BenchResult& r) {
                       {"reorder_every", r.reorder_every},
                       {"skin", r.skin},
                       {"ranks", r.ranks},
-                      {"decomposed", r.decomposed},
-                      {"cuda_graphs", r.cuda_graphs}};
+                      {"decomposed", r.decomposed}};
   if (!r.profile.empty()) j["profile"] = r.profile;
   if (r.mps_watchdog_off > 0) {
     j["mps_watchdog_off"] = r.mps_watchdog_off;

@@ -27,7 +27,6 @@ struct BenchResult {
   double skin = 0;
   int ranks = 1;            // MPI ranks (mpirun), 1 otherwise
   bool decomposed = false;  // the decomposed solver (sim/domain), even on one rank
-  bool cuda_graphs = true;  // CUDA: steps replayed as a captured graph where the step allows it
   double seconds = 0;
   double mps = 0;  // million particle-steps per second
   double setup_seconds = 0;

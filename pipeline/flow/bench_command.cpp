@@ -17,7 +17,6 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
     int reorder_every = 1;
     double skin = 0;
     int cells_per_rc = sim::SimulationOptions{}.cells_per_cutoff;
-    std::string cuda_graphs = "on";
   };
   auto a = std::make_shared<Args>();
   CLI::App* bench = rockflow.add_subcommand("bench", "measure million particle-steps per second");
@@ -49,11 +48,6 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
   bench->add_option("--cells-per-rc", a->cells_per_rc, "cell-list cells per cutoff (1-4)")
       ->check(CLI::Range(1, 4))
       ->capture_default_str();
-  bench
-      ->add_option("--cuda-graphs", a->cuda_graphs,
-                   "CUDA: replay each step as a captured graph where the step allows it")
-      ->check(CLI::IsMember({"on", "off"}))
-      ->capture_default_str();
   return {
       bench, [a](std::shared_ptr<sim::Communicator> world) {
         BenchOptions bo = a->bo;
@@ -64,7 +58,6 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         bo.sim.cells_per_cutoff = a->cells_per_rc;
         bo.sim.reorder_every = a->reorder_every;
         bo.sim.skin = a->skin;
-        bo.sim.cuda_graphs = a->cuda_graphs == "on";
         if (a->decompose) {
           bo.sim.decomposition.force = true;
           if (!bo.sim.comm) bo.sim.comm = sim::make_self_communicator();

@@ -92,22 +92,10 @@ inline int blocks_for(int n) {
   return n <= 0 ? 1 : (n + kBlock - 1) / kBlock;
 }
 
-// A replayed CUDA graph reads the step from device memory (the view it was captured with holds
-// the step of the capture); a plain launch passes null and keeps the view's.
-template <class Real>
-__device__ MESO_INLINE void take_step(StepView<Real>& v, const std::uint64_t* step) {
-  if (step) v.step = *step;
-}
-
-__global__ void step_increment_kernel(std::uint64_t* step) {
-  ++*step;
-}
-
 // The step sequence's per-particle passes (sim/stepper.h): body(v, i), one thread per particle.
 template <class Real, class Body>
-__global__ void for_each_kernel(StepView<Real> v, Body body, const std::uint64_t* step) {
+__global__ void for_each_kernel(StepView<Real> v, Body body) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  take_step(v, step);
   if (i < v.n) body(v, i);
 }
 
@@ -147,9 +135,8 @@ __device__ MESO_INLINE NeighbourStash thread_stash() {
 
 // The same with the thread's neighbour stash: body(v, i, stash), launched with kStashBytes.
 template <class Real, class Body>
-__global__ void for_each_stashed_kernel(StepView<Real> v, Body body, const std::uint64_t* step) {
+__global__ void for_each_stashed_kernel(StepView<Real> v, Body body) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  take_step(v, step);
   if (i < v.n) body(v, i, thread_stash());
 }
 
@@ -451,10 +438,8 @@ __global__ void virial_kernel(StepView<Real> v, VirialRegion<Real> region, doubl
 
 // The watchdog's check after a step (sim/watchdog.h); hits go to the record in device memory.
 template <class Real>
-__global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record,
-                                const std::uint64_t* step) {
+__global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  take_step(v, step);
   if (i >= v.n) return;
   double value = 0;
   const int q = watchdog_check(v, i, max_speed2, value);
@@ -467,9 +452,7 @@ __global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecor
 // overflowed the slots; then finds the particle of the smallest id and puts its hit in slot 0,
 // so the report names the same particle as the CPU's.
 template <class Real>
-__global__ void watchdog_resolve_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record,
-                                        const std::uint64_t* step) {
-  take_step(v, step);
+__global__ void watchdog_resolve_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record) {
   if (record->count <= static_cast<unsigned int>(kWatchdogSlots) || record->resolved ||
       record->first_step != static_cast<unsigned long long>(v.step))
     return;
@@ -518,11 +501,8 @@ class CudaEngine final : public Engine<Real>,
   using W = typename Terms::wall_model;
 
  public:
-  CudaEngine(int device, bool profile, bool graphs) : profile_(profile), graphs_(graphs) {
+  CudaEngine(int device, bool profile) : profile_(profile) {
     check(cudaSetDevice(device), "cudaSetDevice");
-    // A blocking stream: it orders itself with the legacy default stream, on which uploads,
-    // downloads and observables run, so only the step's launches need to name it.
-    check(cudaStreamCreate(&stream_), "cudaStreamCreate");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
   }
@@ -532,8 +512,6 @@ class CudaEngine final : public Engine<Real>,
     if (count_host_) cudaFreeHost(count_host_);
     if (watchdog_host_) cudaFreeHost(watchdog_host_);
     if (watchdog_event_) cudaEventDestroy(watchdog_event_);
-    drop_graph();
-    if (stream_) cudaStreamDestroy(stream_);
   }
 
   const char* name() const override { return "cuda"; }
@@ -557,7 +535,6 @@ class CudaEngine final : public Engine<Real>,
   }
 
   void upload(HostState<Real>& host) {
-    drop_graph();
     host_ = &host;
     const int n = host.size();
     n_ = n;
@@ -610,11 +587,10 @@ class CudaEngine final : public Engine<Real>,
     if (nslabs_ == 0) return;
     const int g = blocks_for(n_);
     slab_partials_.set_size(static_cast<size_t>(nslabs_) * g);
-    slab_partials_kernel<Real><<<g, kBlock, 0, stream_>>>(view(), slab_partials_.get());
+    slab_partials_kernel<Real><<<g, kBlock>>>(view(), slab_partials_.get());
     if (!this->hooks().distributed()) {
-      slab_finish_kernel<Real><<<1, 256, 0, stream_>>>(slab_partials_.get(), g, slab_bodies_.get(),
-                                                       nslabs_, static_cast<double>(dt_), kick,
-                                                       slab_velocity_.get());
+      slab_finish_kernel<Real><<<1, 256>>>(slab_partials_.get(), g, slab_bodies_.get(), nslabs_,
+                                           static_cast<double>(dt_), kick, slab_velocity_.get());
       return;
     }
     slab_sums_.set_size(static_cast<size_t>(nslabs_));
@@ -628,41 +604,9 @@ class CudaEngine final : public Engine<Real>,
                                                    slab_velocity_.get());
   }
 
-  // Small systems are launch-bound (a step is some 25 launches): where the step needs no decision
-  // on the host, its launches are captured once into a CUDA graph and replayed, one launch per
-  // step. The first step runs plainly, so every buffer has its size before the capture.
-  void advance(std::uint64_t steps) override {
-    if (!graph_allowed()) {
-      this->run_steps(steps);
-      return;
-    }
-    if (!graph_exec_) {
-      if (steps == 0) return;
-      this->run_steps(1);
-      if (--steps == 0) return;
-      capture_graph();
-    }
-    check(cudaMemcpyAsync(step_dev_.get(), &step_, sizeof(std::uint64_t), cudaMemcpyHostToDevice,
-                          stream_),
-          "graph step");
-    check(cudaStreamSynchronize(stream_), "graph step");  // step_ is pageable host memory
-    for (std::uint64_t k = 0; k < steps; ++k) {
-      check(cudaGraphLaunch(graph_exec_, stream_), "cudaGraphLaunch");
-      ++step_;
-      if (this->watchdog_.enabled) count_watchdog_step();
-    }
-    this->finish_steps(steps);
-  }
+  void advance(std::uint64_t steps) override { this->run_steps(steps); }
 
-  void set_watchdog(const WatchdogOptions& o) override {
-    drop_graph();  // a captured step has the watchdog's launches in it, or not
-    this->watchdog_ = o;
-  }
-
-  void set_dt(Real dt) override {
-    if (dt != dt_) drop_graph();  // the graph's launches hold the view, dt included
-    dt_ = dt;
-  }
+  void set_dt(Real dt) override { dt_ = dt; }
 
   // The watchdog: a check kernel per step; the host reads the record every poll_steps steps
   // through pinned memory (reading the copy enqueued at the previous poll, long done by then) and
@@ -675,14 +619,10 @@ class CudaEngine final : public Engine<Real>,
       check(cudaEventCreateWithFlags(&watchdog_event_, cudaEventDisableTiming), "cudaEventCreate");
     }
     const double limit = watchdog_speed_limit(this->watchdog_, static_cast<double>(dt_));
-    watchdog_kernel<Real><<<blocks_for(n_), kBlock, 0, stream_>>>(
-        view(), static_cast<Real>(limit * limit), watchdog_record_.get(), graph_step());
-    watchdog_resolve_kernel<Real><<<1, 256, 0, stream_>>>(view(), static_cast<Real>(limit * limit),
-                                                          watchdog_record_.get(), graph_step());
-    if (!capturing_) count_watchdog_step();
-  }
-  // A replayed graph's steps are counted here, outside it: the poll is host logic.
-  void count_watchdog_step() {
+    watchdog_kernel<Real><<<blocks_for(n_), kBlock>>>(view(), static_cast<Real>(limit * limit),
+                                                      watchdog_record_.get());
+    watchdog_resolve_kernel<Real>
+        <<<1, 256>>>(view(), static_cast<Real>(limit * limit), watchdog_record_.get());
     if (++watchdog_since_poll_ >= this->watchdog_.poll_steps) watchdog_poll(false);
   }
   void watchdog_poll(bool now) {
@@ -848,57 +788,18 @@ class CudaEngine final : public Engine<Real>,
     return v;
   }
 
-  // ---- CUDA graphs of one step (advance). ----
-  // Steps whose sequence depends on the host are never captured: the wall model's corrector
-  // (re-sort on a count), a reorder interval (a moved flag), injections (due steps on the host),
-  // a decomposition (MPI between the passes) and profiling (events per pass).
-  bool graph_allowed() const {
-    return graphs_ && !W::enabled && !profile_ && host_->reorder_every <= 1 &&
-           host_->injections.empty() && !this->hooks().distributed();
-  }
-  const std::uint64_t* graph_step() const { return capturing_ ? step_dev_.get() : nullptr; }
-  void capture_graph() {
-    if (step_dev_.size() == 0) step_dev_.resize(1);
-    check(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal), "graph capture");
-    capturing_ = true;
-    const std::uint64_t step = step_;
-    try {
-      this->one_step();  // recorded, not run
-    } catch (...) {
-      capturing_ = false;
-      cudaGraph_t broken = nullptr;
-      cudaStreamEndCapture(stream_, &broken);
-      if (broken) cudaGraphDestroy(broken);
-      throw;
-    }
-    capturing_ = false;
-    step_ = step;
-    check(cudaStreamEndCapture(stream_, &graph_), "graph capture");
-    check(cudaGraphInstantiate(&graph_exec_, graph_, 0), "cudaGraphInstantiate");
-  }
-  void drop_graph() {
-    if (graph_exec_) cudaGraphExecDestroy(graph_exec_);
-    if (graph_) cudaGraphDestroy(graph_);
-    graph_exec_ = nullptr;
-    graph_ = nullptr;
-  }
-
   // ---- The backend primitives of the step sequence (sim/stepper.h). ----
   HostState<Real>& host_state() { return *host_; }
-  void next_step() {
-    ++step_;
-    if (capturing_) step_increment_kernel<<<1, 1, 0, stream_>>>(step_dev_.get());
-  }
+  void next_step() { ++step_; }
   void poll_setup() {}
 
   template <class Body>
   void for_each(const StepView<Real>& v, Body body) {
-    for_each_kernel<<<blocks_for(v.n), kBlock, 0, stream_>>>(v, body, graph_step());
+    for_each_kernel<<<blocks_for(v.n), kBlock>>>(v, body);
   }
   template <class Body>
   void for_each_stashed(const StepView<Real>& v, Body body) {
-    for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes, stream_>>>(v, body,
-                                                                               graph_step());
+    for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, body);
   }
 
   // The wall model's corrector. The re-sort decision needs the count on the host: one small
@@ -935,7 +836,7 @@ class CudaEngine final : public Engine<Real>,
 
   void slab_half_kicks() {
     if (nslabs_ > 0)
-      slab_half_kick_kernel<Real><<<1, kMaxRigidSlabs, 0, stream_>>>(
+      slab_half_kick_kernel<Real><<<1, kMaxRigidSlabs>>>(
           slab_bodies_.get(), nslabs_, static_cast<double>(dt_), slab_half_velocity_.get());
   }
 
@@ -952,37 +853,32 @@ class CudaEngine final : public Engine<Real>,
       ncells_ = host_->grid.count();
       cell_start_.resize(static_cast<size_t>(ncells_) + 1);
     }
-    cell_index_kernel<<<g, kBlock, 0, stream_>>>(view(), cell_.get(), index_.get());
+    cell_index_kernel<<<g, kBlock>>>(view(), cell_.get(), index_.get());
     size_t temp = sort_temp_.size();
     int bits = 1;
     while ((1 << bits) < ncells_ + 1) ++bits;
     check(cub::DeviceRadixSort::SortPairs(sort_temp_.get(), temp, cell_.get(), cell_sorted_.get(),
-                                          index_.get(), perm_.get(), n_, 0, bits, stream_),
+                                          index_.get(), perm_.get(), n_, 0, bits),
           "radix sort");
-    cell_start_kernel<<<blocks_for(n_ + 1), kBlock, 0, stream_>>>(cell_sorted_.get(), n_, ncells_,
-                                                                  cell_start_.get());
-    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_})
-      if (a->size() != 0) permute(*a, scratch_real_);  // v~ is empty without a thermostat
-    permute(type_, scratch_int_);
-    permute(origin_, scratch_int_);
-    permute(id_, scratch_id_);
-    if (carry_forces)
-      for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_, &rho_, &bvf_})
-        if (a->size() != 0) permute(*a, scratch_real_);  // phi is empty without the wall model
-  }
-
-  // a[k] = a[perm[k]] through the scratch buffer: the two swap their memory, except while a graph
-  // is captured, whose replays must find every array where the capture left it (a copy back).
-  template <class T>
-  void permute(DeviceBuffer<T>& a, DeviceBuffer<T>& scratch) {
-    gather_kernel<<<blocks_for(n_), kBlock, 0, stream_>>>(a.get(), scratch.get(), perm_.get(), n_);
-    if (!capturing_) {
-      a.swap(scratch);
-      return;
+    cell_start_kernel<<<blocks_for(n_ + 1), kBlock>>>(cell_sorted_.get(), n_, ncells_,
+                                                      cell_start_.get());
+    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_}) {
+      if (a->size() == 0) continue;  // v~ without a thermostat
+      gather_kernel<<<g, kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), n_);
+      a->swap(scratch_real_);
     }
-    check(cudaMemcpyAsync(a.get(), scratch.get(), static_cast<size_t>(n_) * sizeof(T),
-                          cudaMemcpyDeviceToDevice, stream_),
-          "graph copy back");
+    gather_kernel<<<g, kBlock>>>(type_.get(), scratch_int_.get(), perm_.get(), n_);
+    type_.swap(scratch_int_);
+    gather_kernel<<<g, kBlock>>>(origin_.get(), scratch_int_.get(), perm_.get(), n_);
+    origin_.swap(scratch_int_);
+    gather_kernel<<<g, kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), n_);
+    id_.swap(scratch_id_);
+    if (carry_forces)
+      for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_, &rho_, &bvf_}) {
+        if (a->size() == 0) continue;  // phi without the wall model
+        gather_kernel<<<g, kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), n_);
+        a->swap(scratch_real_);
+      }
   }
 
  public:
@@ -1246,12 +1142,6 @@ class CudaEngine final : public Engine<Real>,
   unsigned int* count_host_ = nullptr;
   std::uint64_t corrected_ = 0;
   bool profile_ = false;
-  bool graphs_ = true;
-  cudaStream_t stream_ = nullptr;  // the step's launches
-  cudaGraph_t graph_ = nullptr;    // one step, captured (advance)
-  cudaGraphExec_t graph_exec_ = nullptr;
-  bool capturing_ = false;
-  DeviceBuffer<std::uint64_t> step_dev_;  // the step a replayed graph reads
   cudaEvent_t events_[6] = {};
   double pass_ms_[5] = {0, 0, 0, 0, 0};
   std::uint64_t profiled_steps_ = 0;
@@ -1265,17 +1155,16 @@ class CudaEngine final : public Engine<Real>,
 }  // namespace
 
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile,
-                                               bool graphs) {
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile) {
   std::unique_ptr<Engine<Real>> engine;
   dispatch_terms(model, [&](auto terms) {
-    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device, profile, graphs);
+    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device, profile);
   });
   return engine;
 }
 
-template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int, bool, bool);
-template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int, bool, bool);
+template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int, bool);
+template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int, bool);
 
 std::string cuda_unavailable_reason() {
   int count = 0;

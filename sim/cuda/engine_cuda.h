@@ -8,9 +8,7 @@
 
 namespace mesorock::sim {
 
-// graphs: replay a captured step as a CUDA graph where the step allows it (SimulationOptions).
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile,
-                                               bool graphs = true);
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile);
 
 }  // namespace mesorock::sim

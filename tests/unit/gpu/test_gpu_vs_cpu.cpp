@@ -127,38 +127,6 @@ TEST_P(GpuVsCpu, WallModelAgrees) {
   EXPECT_LT(worst_x, 1e-4);
 }
 
-// CUDA graphs (SimulationOptions::cuda_graphs) replay the same launches with the step read from
-// device memory: the trajectory is the plain launches' bit for bit, across run() calls of
-// different lengths (the replayed step is re-read each call), a time-step change (a new capture)
-// and the watchdog's polls. The case has a body force, a thermostat and a frozen wall without
-// the wall model, so the graph path is taken.
-TEST_P(GpuVsCpu, CudaGraphsReplayThePlainTrajectoryBitForBit) {
-  Case c = mixed_case(GetParam(), ms::ConservativeKind::MDPD, ms::DensityKernelKind::Lucy);
-  ms::SimulationOptions plain, graphs;
-  plain.backend = graphs.backend = ms::BackendKind::CUDA;
-  plain.cuda_graphs = false;
-  plain.watchdog.poll_steps = graphs.watchdog.poll_steps = 7;
-  auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01, plain);
-  auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, graphs);
-  for (auto* s : {a.get(), b.get()}) {
-    s->run(1);
-    s->run(13);
-    s->run(30);
-    s->set_dt(0.005);
-    s->run(21);
-  }
-  ASSERT_EQ(a->step(), b->step());
-  const auto pa = a->particles(), pb = b->particles();
-  ASSERT_EQ(pa.size(), pb.size());
-  for (size_t i = 0; i < pa.size(); ++i) {
-    ASSERT_EQ(pa.id[i], pb.id[i]);
-    ASSERT_EQ(pa.x[i], pb.x[i]) << "particle " << pa.id[i];
-    ASSERT_EQ(pa.y[i], pb.y[i]) << "particle " << pa.id[i];
-    ASSERT_EQ(pa.z[i], pb.z[i]) << "particle " << pa.id[i];
-    ASSERT_EQ(pa.vx[i], pb.vx[i]) << "particle " << pa.id[i];
-  }
-}
-
 INSTANTIATE_TEST_SUITE_P(Precisions, GpuVsCpu,
                          ::testing::Values(ms::Precision::Single, ms::Precision::Double),
                          [](const auto& info) { return std::string(ms::to_string(info.param)); });
