@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "mesorock/errors.h"
+#include "mesorock/number_text.h"
 #include "pipeline/flow/interrupt.h"
 #include "sim/init.h"
 #include "sim/memory_budget.h"
@@ -38,11 +39,7 @@ constexpr double kMaxParticles = 2147483647.0;
 
 // Shortest text that reads back as the same double ("-1", "0.1", "10", "1e+15", "nan", "inf").
 std::string num(double v) {
-  if (std::isnan(v)) return "nan";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
+  return shortest_number_text(v);
 }
 
 std::string in_quotes(const std::string& s) {

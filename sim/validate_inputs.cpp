@@ -1,12 +1,12 @@
 // The checks of make_simulation's inputs, one per spec of the model, in the order they run: the
 // first problem found is the one reported (ConfigError).
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <sstream>
 #include <tuple>
 
 #include "mesorock/errors.h"
+#include "mesorock/number_text.h"
 #include "sim/engine_factory.h"
 #include "sim/terms.h"
 
@@ -16,15 +16,6 @@ namespace {
 
 void check_finite(double v, const std::string& what) {
   if (!std::isfinite(v)) throw ConfigError(what + " is not a finite number");
-}
-
-// Shortest round-trip text of v, as the scene reader prints it ("nan", "inf" spelled out).
-std::string number_text(double v) {
-  if (std::isnan(v)) return "nan";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
 }
 
 // The types, the model's scalars, the time step and the pair table.
@@ -186,16 +177,17 @@ void validate_wall_model(const Model& m) {
     throw ConfigError("walls." + key + ": " + problem);
   };
   if (!(w.wall_density > 0) || !std::isfinite(w.wall_density))
-    refuse("wall_density", "must be positive and finite (got " + number_text(w.wall_density) + ")");
+    refuse("wall_density",
+           "must be positive and finite (got " + shortest_number_text(w.wall_density) + ")");
   if (!(w.penetration_threshold > 0 && w.penetration_threshold < 1))
     refuse("penetration_threshold",
-           "must be in (0, 1) (got " + number_text(w.penetration_threshold) + ")");
+           "must be in (0, 1) (got " + shortest_number_text(w.penetration_threshold) + ")");
   if (!(w.slip_factor >= 0 && w.slip_factor <= 1))
     refuse("slip_factor",
-           "must be in [0, 1], 1 = no slip (got " + number_text(w.slip_factor) + ")");
+           "must be in [0, 1], 1 = no slip (got " + shortest_number_text(w.slip_factor) + ")");
   if (!(w.max_dissipation_factor >= 1) || !std::isfinite(w.max_dissipation_factor))
     refuse("max_dissipation_factor",
-           "must be >= 1 and finite (got " + number_text(w.max_dissipation_factor) + ")");
+           "must be >= 1 and finite (got " + shortest_number_text(w.max_dissipation_factor) + ")");
   const std::uint32_t mask = m.wall_mask();
   for (int t = 0; t < m.ntypes() && t < 32; ++t)
     if (((mask >> t) & 1u) && !m.types[static_cast<size_t>(t)].frozen)
@@ -226,7 +218,7 @@ void validate_rigid_slab(const Model& m, size_t k) {
   if (r.axis < 0 || r.axis > 2)
     refuse("axis", "must be 0, 1 or 2 (got " + std::to_string(r.axis) + ")");
   if (!std::isfinite(r.applied_pressure))
-    refuse("pressure", "must be finite (got " + number_text(r.applied_pressure) + ")");
+    refuse("pressure", "must be finite (got " + shortest_number_text(r.applied_pressure) + ")");
 }
 
 void validate_injection(const Model& m, const BoxSpec& box, size_t k) {

@@ -1,0 +1,18 @@
+#pragma once
+// Numbers in messages: the shortest text that reads back to the same double ("0.1", "1e-09"),
+// with "nan", "inf" and "-inf" spelled out, so that a message quotes exactly what was given.
+#include <charconv>
+#include <cmath>
+#include <string>
+
+namespace mesorock {
+
+inline std::string shortest_number_text(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+}  // namespace mesorock
