@@ -13,6 +13,7 @@ FlowCommand add_run_command(CLI::App& rockflow) {
     std::string scene, out = "out";
     bool resume = false;
     std::int64_t checkpoint_every = -1;
+    bool profile = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* run = rockflow.add_subcommand("run", "run a scene file");
@@ -30,6 +31,9 @@ FlowCommand add_run_command(CLI::App& rockflow) {
                   "write OUT/checkpoint.h5 every N steps (default: the scene's "
                   "[output] checkpoint_every; 0 = none)")
       ->check(CLI::NonNegativeNumber);
+  run->add_flag("--profile", a->profile,
+                "CUDA: time each pass (kick-drift, sort, density and walls, force, kick) and print "
+                "the per-step times at the end (synchronises every step: slower)");
   return {run, [a](std::shared_ptr<sim::Communicator> world) {
             const sim::SimulationOptions so = solver_options(a->flags, std::move(world));
             const Scene scene = load_scene(a->scene);
@@ -37,6 +41,7 @@ FlowCommand add_run_command(CLI::App& rockflow) {
             RunOptions ro;
             ro.out_dir = a->out;
             ro.sim = so;
+            ro.sim.profile = a->profile;
             ro.sim.decomposition = scene.decomposition;
             ro.resume = a->resume;
             if (a->checkpoint_every >= 0)

@@ -282,6 +282,8 @@ void Runner::finish() {
       seconds > 0 ? mobile * static_cast<double>(total_steps_) / seconds / 1e6 : 0.0;
   summary["mobile_particles"] = mobile;
   summary["mobile_mps"] = mobile_mps;
+  const std::string profile = sim_.profile_report();  // empty unless --profile on the GPU
+  if (!profile.empty()) summary["profile"] = profile;
   for (auto& o : outputs_) o->summarize(summary);
   std::error_code ec;
   if (context_.root) {
@@ -295,6 +297,7 @@ void Runner::finish() {
               << seconds << " s (" << summary["mps"].get<double>() << " MPS/s, " << mobile_mps
               << " of mobile particles); outputs in " << options_.out_dir.string()
               << " (summary.json, thermo.csv, final.xmf opens in ParaView)\n";
+  if (progress_ && !profile.empty()) std::cerr << "rockflow: " << profile << "\n";
 }
 
 }  // namespace mesorock::pipeline
