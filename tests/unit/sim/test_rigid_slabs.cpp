@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "backends.h"
 #include "mesorock/errors.h"
@@ -104,6 +105,15 @@ TEST_P(RigidSlab, RefusesFrozenOrEmptySlabs) {
   s.model.rigid_slabs.push_back({0, 0, 1.0});
   EXPECT_THROW(ms::make_simulation(s.model, s.box, s.particles, 0.01, options()),
                mesorock::ConfigError);
+  // The sim's check (sim::validate_rigid_slab) names the scene key, as the scene reader shows it.
+  s = piston(-1);
+  s.model.rigid_slabs[0].applied_pressure = std::nan("");
+  try {
+    ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
+    ADD_FAILURE() << "a NaN slab pressure was accepted";
+  } catch (const mesorock::ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), "slabs[0].pressure: must be finite (got nan)");
+  }
 }
 
 MESOROCK_ON_EVERY_BACKEND(RigidSlab);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "backends.h"
@@ -268,6 +269,16 @@ TEST_P(Walls, InvalidWallModelsAreRefused) {
   s.model.wall_model.wall_density = 0;
   EXPECT_THROW(ms::make_simulation(s.model, s.box, s.particles, 0.01, options()),
                mesorock::ConfigError);
+  // One check for the scene reader and the sim (sim::validate_wall_model): the message names the
+  // scene key and quotes the value, infinite values included.
+  s = wall_and_fluid(true, 1.5, 100, 0, 1);
+  s.model.wall_model.wall_density = INFINITY;
+  try {
+    ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
+    ADD_FAILURE() << "an infinite wall density was accepted";
+  } catch (const mesorock::ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), "walls.wall_density: must be positive and finite (got inf)");
+  }
 }
 
 MESOROCK_ON_EVERY_BACKEND(Walls);
