@@ -43,7 +43,16 @@ class SerialHooks final : public StepHooks<Real> {
 };
 
 // Where the profiler's marks stand in a step (the CUDA engine times the passes between them).
-enum class StepPhase : int { KickDrift = 0, Sort = 1, Sums = 2, Forces = 3, Kick = 4, End = 5 };
+enum class StepPhase : int {
+  KickDrift = 0,
+  Sort = 1,
+  Sums = 2,
+  Corrector = 3,  // the wall model's corrector (nothing without it)
+  Resort = 4,     // its re-sort and second sums, on the steps where it moved a particle
+  Forces = 5,
+  Kick = 6,
+  End = 7
+};
 
 // ---- Per-particle pass bodies: the functions of sim/kernels.h as functors for for_each. ----
 
@@ -131,8 +140,10 @@ class Stepper {
     local_sums();
     b.poll_setup();
     hooks_->sync_sums(b);
+    b.mark(StepPhase::Corrector);
     if constexpr (W::enabled) {
       const bool corrected = b.correct_penetrations() > 0;
+      b.mark(StepPhase::Resort);
       if (hooks_->any(corrected)) {
         // Corrected particles moved: sort and sum again so the cell list and rho stay exact
         // (and, decomposed, their ghosts follow them first).
@@ -141,6 +152,8 @@ class Stepper {
         local_sums();
         hooks_->sync_sums(b);
       }
+    } else {
+      b.mark(StepPhase::Resort);
     }
     b.mark(StepPhase::Forces);
     b.for_each_stashed(b.view(), ForcePass<Real, Terms>{});

@@ -810,6 +810,7 @@ class CudaEngine final : public Engine<Real>,
     check(cudaMemcpy(count_host_, count_.get(), sizeof(unsigned int), cudaMemcpyDeviceToHost),
           "correction count");
     corrected_ += *count_host_;
+    if (*count_host_ > 0) ++resorted_steps_;
     return *count_host_;
   }
 
@@ -1056,16 +1057,16 @@ class CudaEngine final : public Engine<Real>,
   std::uint64_t wall_corrections() const override { return corrected_; }
 
  private:
-  // Profiling: events 0..5 bound kick_drift | sort | density | force | kick; the step's times are
-  // added up at its end.
+  // Profiling: events 0..7 (StepPhase) bound kick_drift | sort | density | corrector | resort |
+  // force | kick; the step's times are added up at its end.
   void mark(StepPhase phase) {
     if (!profile_) return;
     check(cudaEventRecord(events_[static_cast<int>(phase)]), "cudaEventRecord");
     if (phase == StepPhase::End) accumulate();
   }
   void accumulate() {
-    check(cudaEventSynchronize(events_[5]), "profile sync");
-    for (int k = 0; k < 5; ++k) {
+    check(cudaEventSynchronize(events_[kPasses]), "profile sync");
+    for (int k = 0; k < kPasses; ++k) {
       float ms = 0;
       check(cudaEventElapsedTime(&ms, events_[k], events_[k + 1]), "cudaEventElapsedTime");
       pass_ms_[k] += ms;
@@ -1092,14 +1093,18 @@ class CudaEngine final : public Engine<Real>,
 
   std::string profile_report() const override {
     if (!profile_ || profiled_steps_ == 0) return "";
-    static const char* names[5] = {"kick_drift", "cell_sort", "density", "force", "kick"};
+    static const char* names[kPasses] = {"kick_drift", "cell_sort", "density", "corrector",
+                                         "resort",     "force",     "kick"};
     std::ostringstream s;
     double total = 0;
     for (double v : pass_ms_) total += v;
     s << "per-step GPU time over " << profiled_steps_ << " steps (ms):";
-    for (int k = 0; k < 5; ++k)
+    for (int k = 0; k < kPasses; ++k) {
+      if (!W::enabled && (k == 3 || k == 4)) continue;  // no corrector: always 0
       s << " " << names[k] << " " << pass_ms_[k] / profiled_steps_ << " ("
         << static_cast<int>(100 * pass_ms_[k] / total + 0.5) << "%)";
+    }
+    if (W::enabled) s << "; re-sorted after a correction on " << resorted_steps_ << " steps";
     return s.str();
   }
 
@@ -1142,8 +1147,10 @@ class CudaEngine final : public Engine<Real>,
   unsigned int* count_host_ = nullptr;
   std::uint64_t corrected_ = 0;
   bool profile_ = false;
-  cudaEvent_t events_[6] = {};
-  double pass_ms_[5] = {0, 0, 0, 0, 0};
+  static constexpr int kPasses = static_cast<int>(StepPhase::End);
+  cudaEvent_t events_[kPasses + 1] = {};
+  double pass_ms_[kPasses] = {};
+  std::uint64_t resorted_steps_ = 0;  // profiling: steps whose corrector moved a particle
   std::uint64_t profiled_steps_ = 0;
   DeviceBuffer<WatchdogRecord> watchdog_record_;  // allocated at the first checked step
   WatchdogRecord* watchdog_host_ = nullptr;       // pinned
