@@ -75,7 +75,7 @@ class CpuEngine final : public Engine<Real>,
 
   const char* name() const override { return "cpu"; }
 
-  void initialize(HostState<Real>& host, StepHooks<Real>* hooks) override {
+  void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     s_ = &host;
     this->attach_hooks(hooks);
     ThreadScope scope(threads_);
@@ -83,7 +83,7 @@ class CpuEngine final : public Engine<Real>,
   }
 
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
-               StepHooks<Real>* hooks) override {
+               StepHooks<Real>& hooks) override {
     s_ = &host;
     this->attach_hooks(hooks);
     corrected_ = wall_corrections;

@@ -271,9 +271,9 @@ class SimulationImpl final : public Simulation {
     engine.set_interrupt_check(interrupt_check);
     if (resume) {
       // The run's wall-correction count goes to rank 0 alone (wall_corrections() sums them).
-      engine.restore(solver_.host, rank() == 0 ? resume->wall_corrections : 0, domain_->hooks());
+      engine.restore(solver_.host, rank() == 0 ? resume->wall_corrections : 0, *domain_->hooks());
     } else {
-      engine.initialize(solver_.host, domain_->hooks());
+      engine.initialize(solver_.host, *domain_->hooks());
     }
     engine.set_interrupt_check({});
     poll();

@@ -129,15 +129,15 @@ class Engine {
   virtual ~Engine() = default;
   virtual const char* name() const = 0;
   // Takes the host state as the initial condition and computes the forces of step `host.step`.
-  // With a domain decomposition, `hooks` are called between the phases of every step
-  // (sim/domain/exchange.h) and the engine's storage is the DomainStore they work on.
-  virtual void initialize(HostState<Real>& host, StepHooks<Real>* hooks = nullptr) = 0;
+  // `hooks` are called between the phases of every step (sim/domain/exchange.h; SerialHooks on
+  // one rank, sim/stepper.h) and the engine's storage is the DomainStore they work on.
+  virtual void initialize(HostState<Real>& host, StepHooks<Real>& hooks) = 0;
   // Takes a saved host state (cell-sorted, with the forces, densities and slab forces of step
   // `host.step` already in it) and continues from it: builds the cell list, computes nothing.
   // A decomposed run's saved state holds this rank's own particles and no ghosts (the first
   // step's exchange brings them); `hooks` as for initialize.
   virtual void restore(HostState<Real>& host, std::uint64_t wall_corrections,
-                       StepHooks<Real>* hooks = nullptr) = 0;
+                       StepHooks<Real>& hooks) = 0;
   virtual void advance(std::uint64_t steps) = 0;
   virtual void set_dt(Real dt) = 0;
   // Brings host positions, velocities, forces and densities up to date.

@@ -97,8 +97,8 @@ class Stepper {
   using C = typename Terms::conservative;
   using W = typename Terms::wall_model;
 
-  // The decomposition's hooks, or the serial ones when `hooks` is null.
-  void attach_hooks(StepHooks<Real>* hooks) { hooks_ = hooks ? hooks : &serial_hooks_; }
+  // The domain's hooks: SerialHooks on one rank, the decomposition's otherwise.
+  void attach_hooks(StepHooks<Real>& hooks) { hooks_ = &hooks; }
   StepHooks<Real>& hooks() const { return *hooks_; }
 
   // Forces (and the slabs' forces) of the current step: the start of a run.
@@ -141,19 +141,16 @@ class Stepper {
     b.poll_setup();
     hooks_->sync_sums(b);
     b.mark(StepPhase::Corrector);
-    if constexpr (W::enabled) {
-      const bool corrected = b.correct_penetrations() > 0;
-      b.mark(StepPhase::Resort);
-      if (hooks_->any(corrected)) {
-        // Corrected particles moved: sort and sum again so the cell list and rho stay exact
-        // (and, decomposed, their ghosts follow them first).
-        hooks_->refresh_ghosts(b);
-        sort();
-        local_sums();
-        hooks_->sync_sums(b);
-      }
-    } else {
-      b.mark(StepPhase::Resort);
+    bool corrected = false;
+    if constexpr (W::enabled) corrected = hooks_->any(b.correct_penetrations() > 0);
+    b.mark(StepPhase::Resort);
+    if (corrected) {
+      // Corrected particles moved: sort and sum again so the cell list and rho stay exact (and,
+      // decomposed, their ghosts follow them first).
+      hooks_->refresh_ghosts(b);
+      sort();
+      local_sums();
+      hooks_->sync_sums(b);
     }
     b.mark(StepPhase::Forces);
     b.for_each_stashed(b.view(), ForcePass<Real, Terms>{});
@@ -193,8 +190,7 @@ class Stepper {
     }
   }
 
-  SerialHooks<Real> serial_hooks_;
-  StepHooks<Real>* hooks_ = &serial_hooks_;
+  StepHooks<Real>* hooks_ = nullptr;
   int steps_since_sort_ = 0;
 };
 

@@ -516,7 +516,7 @@ class CudaEngine final : public Engine<Real>,
 
   const char* name() const override { return "cuda"; }
 
-  void initialize(HostState<Real>& host, StepHooks<Real>* hooks) override {
+  void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     this->attach_hooks(hooks);
     upload(host);
     this->initial_forces();
@@ -524,7 +524,7 @@ class CudaEngine final : public Engine<Real>,
   }
 
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
-               StepHooks<Real>* hooks) override {
+               StepHooks<Real>& hooks) override {
     this->attach_hooks(hooks);
     upload(host);
     corrected_ = wall_corrections;
