@@ -6,6 +6,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "sim/half_list.h"
 #include "sim/kernels.h"
 #include "sim/stepper.h"
 #include "sim/terms.h"
@@ -210,10 +211,21 @@ class CpuEngine final : public Engine<Real>,
 #pragma omp parallel for schedule(static)
     for (int i = 0; i < n; ++i) body(v, i);
   }
-  // On the CPU the neighbour stash is off: each neighbour is visited straight from the cell list.
-  template <class Body>
-  void for_each_stashed(const StepView<Real>& v, Body body) {
-    for_each(v, [&](const StepView<Real>& w, int i) { body(w, i, NeighbourStash{}); });
+  // The pair passes use Newton's third law over the half list (sim/half_list.h): begin for every
+  // particle, each pair once, finish for every particle.
+  template <class Pass>
+  void pair_sums(const StepView<Real>& v, const Pass& pass) {
+    newton_pass(v, pass);
+  }
+  template <class Pass>
+  void pair_forces(const StepView<Real>& v, const Pass& pass) {
+    newton_pass(v, pass);
+  }
+  template <class Pass>
+  void newton_pass(const StepView<Real>& v, const Pass& pass) {
+    for_each(v, [&](const StepView<Real>& w, int i) { pass.begin(w, i); });
+    list_.for_each_particle(v, pass, [&] { poll_setup(); });
+    for_each(v, [&](const StepView<Real>& w, int i) { pass.finish(w, i); });
   }
 
   // Set-up (an interrupt check is set, Engine::set_interrupt_check; never in a decomposed run,
@@ -238,8 +250,11 @@ class CpuEngine final : public Engine<Real>,
     }
   }
 
+  // The sort, and the half list of that sort: pairs within rc + skin (the skin of a reorder
+  // interval; 0 when every step sorts).
   void sort_by_cell(bool carry_forces) {
     sorter_.sort(*s_, carry_forces);
+    list_.build(s_->view(), Real(1) + s_->skin);
   }
   bool sort_positions_stale() const {
     return x0_.size() != s_->x.size();
@@ -531,6 +546,7 @@ class CpuEngine final : public Engine<Real>,
   int threads_;
   HostState<Real>* s_ = nullptr;
   CellSorter<Real> sorter_;
+  HalfList<Real> list_;
 };
 
 }  // namespace

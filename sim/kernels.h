@@ -354,6 +354,21 @@ MESO_HD MESO_INLINE PairForce<Real> pair_force(const StepView<Real>& v, const Pa
   return f;
 }
 
+// The body force g_type of particle i (with its sign, for a position-dependent one) added to f.
+template <class Real, class BodyForce>
+MESO_HD MESO_INLINE void add_body_force([[maybe_unused]] const StepView<Real>& v,
+                                        [[maybe_unused]] int i, [[maybe_unused]] Real& fx,
+                                        [[maybe_unused]] Real& fy, [[maybe_unused]] Real& fz) {
+  if constexpr (BodyForce::enabled) {
+    const Real* g = v.body_force + 3 * v.type[i];
+    const Real* pos = v.body_force_axis == 0 ? v.x : (v.body_force_axis == 1 ? v.y : v.z);
+    const Real s = BodyForce::sign(pos[i], v.body_force_midplane);
+    fx += s * g[0];
+    fy += s * g[1];
+    fz += s * g[2];
+  }
+}
+
 // Force pass for one particle: f_i = sum_j F_ij + g_type. Frozen particles get f = 0.
 template <class Real, class Conservative, class Thermostat, class BodyForce,
           class WallModel = NoWallModel>
@@ -371,18 +386,125 @@ MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i,
       fy += s * dy;
       fz += s * dz;
     });
-    if constexpr (BodyForce::enabled) {
-      const Real* g = v.body_force + 3 * v.type[i];
-      const Real* pos = v.body_force_axis == 0 ? v.x : (v.body_force_axis == 1 ? v.y : v.z);
-      const Real s = BodyForce::sign(pos[i], v.body_force_midplane);
-      fx += s * g[0];
-      fy += s * g[1];
-      fz += s * g[2];
-    }
+    add_body_force<Real, BodyForce>(v, i, fx, fy, fz);
   }
   v.fx[i] = fx;
   v.fy[i] = fy;
   v.fz[i] = fz;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Newton's third law: the same sums, each pair evaluated once and its result added to both
+// particles. The CPU backend runs these over its half neighbour list (sim/half_list.h), which
+// holds each pair once, in the list [first, last) of its lower-stored particle, and schedules the
+// particles so that no two threads add to one particle at once, in an order that does not depend
+// on the thread count. A pass is: begin (every particle), the pair bodies, finish (every particle).
+// The separations are minimum images, so a list may be kept while the particles move (a skin).
+
+template <class Real>
+MESO_HD MESO_INLINE Real separation2(const StepView<Real>& v, int i, int j, Real& dx, Real& dy,
+                                     Real& dz) {
+  dx = v.box.minimum_image(v.x[i] - v.x[j], 0);
+  dy = v.box.minimum_image(v.y[i] - v.y[j], 1);
+  dz = v.box.minimum_image(v.z[i] - v.z[j], 2);
+  return dx * dx + dy * dy + dz * dz;
+}
+
+// rho (when DensityKernel is not void) and the wall sum of phi, before the pairs.
+template <class Real, class DensityKernel>
+MESO_HD MESO_INLINE void begin_sums(const StepView<Real>& v, int i, bool walls) {
+  if constexpr (!std::is_void<DensityKernel>::value) v.rho[i] = Real(0);
+  if (walls) v.bvf[i] = Real(0);
+}
+
+// The pairs of particle i in the density pass and, with walls, the wall sum of phi (as in
+// density_and_bvf_of_particle): rho_i += w(r_ij) and rho_j += w(r_ij); the fluid side of a
+// fluid-wall pair gets W(r_ij).
+template <class Real, class DensityKernel, bool kWalls>
+MESO_HD MESO_INLINE void sums_of_pairs(const StepView<Real>& v, int i, const int* first,
+                                       const int* last) {
+  constexpr bool kDensity = !std::is_void<DensityKernel>::value;
+  Real rho = 0, wall = 0;
+  const Real rd = v.rd;
+  const Real rd2 = rd * rd;
+  const bool wall_i = kWalls && v.walls.is_wall(v.type[i]);
+  for (const int* p = first; p < last; ++p) {
+    const int j = *p;
+    Real dx, dy, dz;
+    const Real r2 = separation2(v, i, j, dx, dy, dz);
+    if (!(r2 < Real(1))) continue;
+    const Real r = real_sqrt(r2);
+    if constexpr (kDensity) {
+      if (r2 < rd2) {
+        const Real w = DensityKernel::weight(r, rd);
+        rho += w;
+        v.rho[j] += w;
+      }
+    }
+    if constexpr (kWalls) {
+      if (wall_i != v.walls.is_wall(v.type[j])) {
+        const Real w = bvf_weight(r);
+        if (wall_i)
+          v.bvf[j] += w;
+        else
+          wall += w;
+      }
+    }
+  }
+  if constexpr (kDensity) v.rho[i] += rho;
+  if constexpr (kWalls) v.bvf[i] += wall;
+}
+
+// phi_i = (wall sum) / n_w; a wall particle's stays 0 (it never gets a wall sum).
+template <class Real>
+MESO_HD MESO_INLINE void finish_sums(const StepView<Real>& v, int i, bool walls) {
+  if (walls) v.bvf[i] *= v.walls.inv_wall_density;
+}
+
+template <class Real>
+MESO_HD MESO_INLINE void begin_forces(const StepView<Real>& v, int i) {
+  v.fx[i] = Real(0);
+  v.fy[i] = Real(0);
+  v.fz[i] = Real(0);
+}
+
+// The pairs of particle i in the force pass: f_i += F_ij, f_j -= F_ij (F_ij = -F_ji to the last
+// bit: pair_force is symmetric in its two sides and the random number is keyed by the sorted ids).
+template <class Real, class Conservative, class Thermostat, class WallModel = NoWallModel>
+MESO_HD MESO_INLINE void forces_of_pairs(const StepView<Real>& v, int i, const int* first,
+                                         const int* last) {
+  Real fx = 0, fy = 0, fz = 0;
+  const PairSide<Real> self = pair_side<Real, Conservative, Thermostat>(v, i);
+  for (const int* p = first; p < last; ++p) {
+    const int j = *p;
+    Real dx, dy, dz;
+    const Real r2 = separation2(v, i, j, dx, dy, dz);
+    if (!(r2 < Real(1))) continue;
+    const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
+        v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
+    if (f.r == Real(0)) continue;
+    const Real s = (f.conservative + f.dissipative + f.random) / f.r;
+    fx += s * dx;
+    fy += s * dy;
+    fz += s * dz;
+    v.fx[j] -= s * dx;
+    v.fy[j] -= s * dy;
+    v.fz[j] -= s * dz;
+  }
+  v.fx[i] += fx;
+  v.fy[i] += fy;
+  v.fz[i] += fz;
+}
+
+// After the pairs: frozen particles and ghosts get f = 0 (their pairs' forces went to the
+// others), the rest their body force.
+template <class Real, class BodyForce>
+MESO_HD MESO_INLINE void finish_forces(const StepView<Real>& v, int i) {
+  if (v.frozen(i) || v.ghost(i)) {
+    begin_forces(v, i);
+    return;
+  }
+  add_body_force<Real, BodyForce>(v, i, v.fx[i], v.fy[i], v.fz[i]);
 }
 
 // ---------------------------------------------------------------------------------------------

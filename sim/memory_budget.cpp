@@ -91,7 +91,7 @@ void take_cgroup(MemoryAvailable& m) {
 
 double host_bytes_per_particle(Precision p) {
   const double real = p == Precision::Single ? 4 : 8;
-  return 156 + 15 * real;
+  return 284 + 15 * real;
 }
 
 double device_bytes_per_particle(Precision p) {

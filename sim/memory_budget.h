@@ -18,8 +18,12 @@ namespace mesorock::sim {
 //     id int64)                                                    14 Real + 16 B
 //   the cell sorter (cell_of, dest int; scratch Real, int32,
 //     int64)                                                       1 Real + 20 B
-// = 156 + 15 Real: 276 B in double precision, 216 B in single. The CUDA engine keeps the same
-// host mirror. Per cell: cell_start and the sorter's fill cursor, 8 B.
+//   the CPU engine's half list (sim/half_list.h: offset and force end, int; at rho = 7 about 15
+//     pairs within rc of 4 B each, doubled for the vectors' growth; a skin of 0.3 rc doubles
+//     the pairs)                                                   128 B
+// = 284 + 15 Real: 404 B in double precision, 344 B in single. The CUDA engine keeps the same
+// host mirror (without the list: the estimate is then on the safe side). Per cell: cell_start and
+// the sorter's fill cursor, 8 B.
 double host_bytes_per_particle(Precision p);
 inline constexpr double kHostBytesPerCell = 8;
 

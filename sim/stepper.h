@@ -7,8 +7,11 @@
 //   HostState<Real>& host_state()          the run's parameters (and, on the CPU, its storage)
 //   StepView<Real> view()                  the storage as the kernel bodies see it
 //   for_each(view, body)                   body(view, i) for every stored particle, in parallel
-//   for_each_stashed(view, body)           the same, with a neighbour stash (sim/kernels.h)
-//   sort_by_cell(carry_forces)             the stable cell sort of the storage
+//   pair_sums(view, pass), pair_forces(view, pass)
+//                                          a pass over the pairs (below): on the GPU a gather per
+//                                          particle, on the CPU Newton over a half list
+//   sort_by_cell(carry_forces)             the stable cell sort of the storage (and, on the CPU,
+//                                          its half list)
 //   sort_positions_stale(), remember_sort_positions(), any_moved_beyond(limit2)
 //   correct_penetrations()                 the wall model's corrector; returns the count
 //   slab_half_kicks(), slab_forces(kick)   the rigid slabs' reductions and kicks
@@ -54,7 +57,12 @@ enum class StepPhase : int {
   End = 7
 };
 
-// ---- Per-particle pass bodies: the functions of sim/kernels.h as functors for for_each. ----
+// ---- The passes: the functions of sim/kernels.h as functors. ----
+// Each pass has two forms of one computation. operator()(v, i) gathers particle i's sums over its
+// neighbours (the GPU: one thread per particle, each pair seen from both sides). begin, pairs and
+// finish add each pair once to both particles (Newton's third law; the CPU over its half list:
+// begin for every particle, then pairs(v, i, first, force_end, last) over particle i's half list,
+// whose pairs from force_end on join two frozen particles, then finish for every particle).
 
 template <class Real, bool kVelocityEstimate>
 struct KickDriftPass {
@@ -68,26 +76,45 @@ struct KickPass {
   MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const { kick(v, i); }
 };
 
-template <class Real, class DensityKernel>
-struct DensityPass {
+// rho; with kWalls also phi, the wall model's boundary volume fraction. DensityKernel is void
+// without a many-body term: phi alone. Frozen pairs count (a frozen particle's rho enters the
+// force on its mobile neighbours).
+template <class Real, class DensityKernel, bool kWalls>
+struct SumsPass {
   MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const {
-    density_of_particle<Real, DensityKernel>(v, i);
+    if constexpr (kWalls)
+      density_and_bvf_of_particle<Real, DensityKernel>(v, i);
+    else
+      density_of_particle<Real, DensityKernel>(v, i);
+  }
+  MESO_HD MESO_INLINE void begin(const StepView<Real>& v, int i) const {
+    begin_sums<Real, DensityKernel>(v, i, kWalls);
+  }
+  MESO_HD MESO_INLINE void pairs(const StepView<Real>& v, int i, const int* first, const int*,
+                                 const int* last) const {
+    sums_of_pairs<Real, DensityKernel, kWalls>(v, i, first, last);
+  }
+  MESO_HD MESO_INLINE void finish(const StepView<Real>& v, int i) const {
+    finish_sums(v, i, kWalls);
   }
 };
 
-// DensityKernel is void without a many-body term: phi alone.
-template <class Real, class DensityKernel>
-struct DensityAndBvfPass {
-  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const {
-    density_and_bvf_of_particle<Real, DensityKernel>(v, i);
-  }
-};
-
+// Forces; pairs of two frozen particles are skipped (neither moves).
 template <class Real, class Terms>
 struct ForcePass {
+  using C = typename Terms::conservative;
+  using T = typename Terms::thermostat;
   MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i, NeighbourStash stash) const {
-    force_on_particle<Real, typename Terms::conservative, typename Terms::thermostat,
-                      typename Terms::body_force, typename Terms::wall_model>(v, i, stash);
+    force_on_particle<Real, C, T, typename Terms::body_force, typename Terms::wall_model>(v, i,
+                                                                                          stash);
+  }
+  MESO_HD MESO_INLINE void begin(const StepView<Real>& v, int i) const { begin_forces(v, i); }
+  MESO_HD MESO_INLINE void pairs(const StepView<Real>& v, int i, const int* first,
+                                 const int* force_end, const int*) const {
+    forces_of_pairs<Real, C, T, typename Terms::wall_model>(v, i, first, force_end);
+  }
+  MESO_HD MESO_INLINE void finish(const StepView<Real>& v, int i) const {
+    finish_forces<Real, typename Terms::body_force>(v, i);
   }
 };
 
@@ -153,7 +180,7 @@ class Stepper {
       hooks_->sync_sums(b);
     }
     b.mark(StepPhase::Forces);
-    b.for_each_stashed(b.view(), ForcePass<Real, Terms>{});
+    b.pair_forces(b.view(), ForcePass<Real, Terms>{});
   }
 
   // The stable cell sort; with a reorder interval, also the positions it was made at.
@@ -182,12 +209,9 @@ class Stepper {
 
   void local_sums() {
     Backend& b = backend();
-    if constexpr (W::enabled) {
-      using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
-      b.for_each(b.view(), DensityAndBvfPass<Real, K>{});
-    } else if constexpr (C::needs_density) {
-      b.for_each(b.view(), DensityPass<Real, typename C::density_kernel>{});
-    }
+    using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
+    if constexpr (W::enabled || C::needs_density)
+      b.pair_sums(b.view(), SumsPass<Real, K, W::enabled>{});
   }
 
   StepHooks<Real>* hooks_ = nullptr;

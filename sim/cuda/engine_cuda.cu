@@ -797,9 +797,15 @@ class CudaEngine final : public Engine<Real>,
   void for_each(const StepView<Real>& v, Body body) {
     for_each_kernel<<<blocks_for(v.n), kBlock>>>(v, body);
   }
-  template <class Body>
-  void for_each_stashed(const StepView<Real>& v, Body body) {
-    for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, body);
+  // The pair passes gather per particle (each pair from both sides): no atomics, and the force
+  // pass's neighbour stash keeps a warp's lanes in step.
+  template <class Pass>
+  void pair_sums(const StepView<Real>& v, Pass pass) {
+    for_each(v, pass);
+  }
+  template <class Pass>
+  void pair_forces(const StepView<Real>& v, Pass pass) {
+    for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
   }
 
   // The wall model's corrector. The re-sort decision needs the count on the host: one small

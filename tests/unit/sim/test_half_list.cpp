@@ -1,0 +1,234 @@
+// The CPU's half neighbour list (sim/half_list.h) and the Newton pair passes over it: each pair
+// within the cutoff once; rho, phi and the forces those of the per-particle gather (the GPU's
+// form, sim/kernels.h) to round-off; frozen-frozen pairs out of the force pass; the same bits on
+// 1, 2 and 3 threads. Cases: periodic and reflective axes, an axis too short for the 3-cell
+// stencil, 2 cells per cutoff, and a list of rc + skin kept while the particles move.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include "sim/half_list.h"
+#include "sim/state.h"
+#include "sim/stepper.h"
+#include "sim/terms.h"
+
+namespace ms = mesorock::sim;
+
+namespace {
+
+using MDPD = ms::ConservativeMDPD<ms::DensityKernelWarren>;
+using Terms =
+    ms::TermSet<MDPD, ms::DPDThermostat, ms::PerTypeBodyForce, ms::BoundaryVolumeFractionWalls>;
+
+struct Case {
+  double length[3] = {9, 8, 7};
+  bool periodic[3] = {true, true, true};
+  int reach = 1;
+  double skin = 0;
+};
+
+// Types: 0 fluid, 1 frozen wall, 2 a second fluid. Random positions at rho = 6, sorted by cell.
+struct System {
+  ms::HostState<double> s;
+  std::vector<double> kappa_table{1.0, 2.0, 3.0, 4.0};
+
+  explicit System(const Case& c, unsigned seed = 7) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int a = 0; a < 3; ++a) {
+      s.box.lo[a] = -1;
+      s.box.length[a] = c.length[a];
+      s.box.periodic[a] = c.periodic[a];
+    }
+    const int n = static_cast<int>(6 * c.length[0] * c.length[1] * c.length[2]);
+    for (int i = 0; i < n; ++i) {
+      s.x.push_back(-1 + c.length[0] * u(rng));
+      s.y.push_back(-1 + c.length[1] * u(rng));
+      s.z.push_back(-1 + c.length[2] * u(rng));
+      for (auto* v : {&s.vx, &s.vy, &s.vz, &s.vex, &s.vey, &s.vez}) v->push_back(u(rng) - 0.5);
+      const double t = u(rng);
+      s.type.push_back(t < 0.4 ? 1 : (t < 0.7 ? 2 : 0));
+      s.id.push_back(1000 + 3 * i);
+      s.origin.push_back(i);
+    }
+    s.fx.assign(n, 0), s.fy.assign(n, 0), s.fz.assign(n, 0), s.rho.assign(n, 0);
+    s.bvf.assign(n, 0);
+    s.ntypes = 3;
+    const double a[3][3] = {{-40, -30, -35}, {-30, -20, -25}, {-35, -25, -40}};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) s.table.push_back({a[i][j], 25, 4.5, 3});
+    s.body_force = {0.1, 0, 0, 0, 0, 0, 0, 0.2, 0};
+    s.frozen_mask = 1u << 1;
+    s.walls.wall_mask = 1u << 1;
+    s.walls.inv_wall_density = 1.0 / 6;
+    s.kappa = kappa_table;
+    s.walls.entries = 4;
+    s.walls.phi_max = 0.5;
+    s.seed = 11;
+    s.step = 5;
+    s.skin = c.skin;
+    s.reorder_every = c.skin > 0 ? 10 : 1;
+    s.grid = ms::CellGrid<double>::make(s.box, 1 + c.skin, c.reach);
+    sort();
+  }
+
+  // A stable sort of the storage by cell, and the cell list.
+  void sort() {
+    const int n = s.size();
+    std::vector<int> cell(n), order(n);
+    for (int i = 0; i < n; ++i)
+      cell[i] = s.grid.index(s.grid.coordinate(s.x[i], s.box.lo[0], 0),
+                             s.grid.coordinate(s.y[i], s.box.lo[1], 1),
+                             s.grid.coordinate(s.z[i], s.box.lo[2], 2));
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cell[a] < cell[b]; });
+    s.for_each_particle_array([&](auto& v) {
+      auto copy = v;
+      for (int k = 0; k < n; ++k) v[k] = copy[order[k]];
+    });
+    s.cell_start.assign(s.grid.count() + 1, 0);
+    for (int c : cell) ++s.cell_start[c + 1];
+    for (int c = 0; c < s.grid.count(); ++c) s.cell_start[c + 1] += s.cell_start[c];
+  }
+
+  // rho, phi and f by the gather (one particle at a time, each pair from both sides).
+  void gather() {
+    const auto v = s.view();
+    ms::SumsPass<double, ms::DensityKernelWarren, true> sums;
+    ms::ForcePass<double, Terms> forces;
+    for (int i = 0; i < v.n; ++i) sums(v, i);
+    for (int i = 0; i < v.n; ++i) forces(v, i, ms::NeighbourStash{});
+  }
+
+  // The same by Newton's third law over the half list.
+  template <class Pass>
+  void newton(const ms::HalfList<double>& list, const Pass& pass) {
+    const auto v = s.view();
+    for (int i = 0; i < v.n; ++i) pass.begin(v, i);
+    list.for_each_particle(v, pass, [] {});
+    for (int i = 0; i < v.n; ++i) pass.finish(v, i);
+  }
+  void newton(const ms::HalfList<double>& list) {
+    newton(list, ms::SumsPass<double, ms::DensityKernelWarren, true>{});
+    newton(list, ms::ForcePass<double, Terms>{});
+  }
+};
+
+double worst_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double worst = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    worst = std::max(worst, std::abs(a[i] - b[i]) / (1 + std::abs(a[i])));
+  return worst;
+}
+
+// Pairs within the cutoff by brute force (minimum image), and by the list.
+int brute_pairs(ms::HostState<double>& s, double cutoff) {
+  const auto v = s.view();
+  int count = 0;
+  for (int i = 0; i < v.n; ++i)
+    for (int j = i + 1; j < v.n; ++j) {
+      double dx, dy, dz;
+      if (ms::separation2(v, i, j, dx, dy, dz) < cutoff * cutoff) ++count;
+    }
+  return count;
+}
+
+void expect_newton_matches_gather(const Case& c, const char* what) {
+  System a(c);
+  ms::HalfList<double> list;
+  list.build(a.s.view(), 1 + c.skin);
+  EXPECT_EQ(static_cast<int>(list.pair_count()), brute_pairs(a.s, 1 + c.skin)) << what;
+  if (c.skin > 0) {
+    // The list stays valid while nobody has moved more than skin / 2.
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const double step = 0.49 * c.skin / std::sqrt(3.0);
+    for (int i = 0; i < a.s.size(); ++i) {
+      if (a.s.type[i] == 1) continue;  // frozen
+      a.s.x[i] += step * u(rng), a.s.y[i] += step * u(rng), a.s.z[i] += step * u(rng);
+      for (int ax = 0; ax < 3; ++ax) {
+        std::vector<double>& p = ax == 0 ? a.s.x : (ax == 1 ? a.s.y : a.s.z);
+        p[i] = std::clamp(p[i], a.s.box.lo[ax], a.s.box.lo[ax] + a.s.box.length[ax] - 1e-9);
+      }
+    }
+  }
+  System b = a;
+  a.gather();
+  b.newton(list);
+  EXPECT_LT(worst_difference(a.s.rho, b.s.rho), 1e-13) << what;
+  EXPECT_LT(worst_difference(a.s.bvf, b.s.bvf), 1e-13) << what;
+  EXPECT_LT(worst_difference(a.s.fx, b.s.fx), 1e-11) << what;
+  EXPECT_LT(worst_difference(a.s.fy, b.s.fy), 1e-11) << what;
+  EXPECT_LT(worst_difference(a.s.fz, b.s.fz), 1e-11) << what;
+  double total = 0;
+  for (int i = 0; i < b.s.size(); ++i) total += std::abs(b.s.fx[i]);
+  EXPECT_GT(total, 1.0) << what;  // forces there are
+  for (int i = 0; i < b.s.size(); ++i)
+    if (b.s.type[i] == 1) ASSERT_EQ(b.s.fx[i], 0.0) << what;  // frozen: no force
+}
+
+TEST(HalfList, NewtonPassesMatchTheGatherOnEveryGeometry) {
+  expect_newton_matches_gather(Case{}, "periodic box");
+  Case reflective;
+  reflective.periodic[2] = false;
+  expect_newton_matches_gather(reflective, "reflective z");
+  Case short_axis;
+  short_axis.length[1] = 3.5;  // 3 cells: the stencil covers the axis whole
+  short_axis.length[2] = 2.5;  // 2 cells
+  expect_newton_matches_gather(short_axis, "short axes");
+  Case fine;
+  fine.reach = 2;
+  expect_newton_matches_gather(fine, "2 cells per rc");
+  Case skin;
+  skin.skin = 0.3;
+  expect_newton_matches_gather(skin, "skin 0.3, moved up to skin / 2");
+}
+
+TEST(HalfList, FrozenPairsComeLastAndOnlyFeedTheDensity) {
+  System a(Case{});
+  ms::HalfList<double> list;
+  list.build(a.s.view(), 1);
+  int frozen_pairs = 0, force_pairs = 0;
+  struct Count {
+    int* frozen;
+    int* force;
+    const std::int32_t* type;
+    void pairs(const ms::StepView<double>&, int i, const int* first, const int* force_end,
+               const int* last) const {
+      for (const int* p = first; p < force_end; ++p) EXPECT_FALSE(type[i] == 1 && type[*p] == 1);
+      for (const int* p = force_end; p < last; ++p) EXPECT_TRUE(type[i] == 1 && type[*p] == 1);
+      *force += static_cast<int>(force_end - first);
+      *frozen += static_cast<int>(last - force_end);
+    }
+  };
+  omp_set_num_threads(1);
+  list.for_each_particle(a.s.view(), Count{&frozen_pairs, &force_pairs, a.s.type.data()}, [] {});
+  EXPECT_GT(frozen_pairs, 0);
+  EXPECT_EQ(static_cast<size_t>(frozen_pairs + force_pairs), list.pair_count());
+}
+
+TEST(HalfList, TheThreadCountChangesNoBit) {
+  std::vector<System> runs;
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    System s(Case{});
+    ms::HalfList<double> list;
+    list.build(s.s.view(), 1);
+    s.newton(list);
+    runs.push_back(s);
+  }
+  for (size_t k = 1; k < runs.size(); ++k) {
+    EXPECT_EQ(runs[0].s.rho, runs[k].s.rho);
+    EXPECT_EQ(runs[0].s.bvf, runs[k].s.bvf);
+    EXPECT_EQ(runs[0].s.fx, runs[k].s.fx);
+    EXPECT_EQ(runs[0].s.fz, runs[k].s.fz);
+  }
+  omp_set_num_threads(1);
+}
+
+}  // namespace
