@@ -15,6 +15,7 @@ FlowCommand add_validate_command(CLI::App& rockflow) {
     SolverFlags flags;
     std::string case_name, size = "small", kernel = "warren";
     bool list = false, json = false;
+    std::uint64_t seed_offset = 0;
   };
   auto a = std::make_shared<Args>();
   CLI::App* val = rockflow.add_subcommand("validate", "run a built-in physics validation case");
@@ -23,6 +24,9 @@ FlowCommand add_validate_command(CLI::App& rockflow) {
   val->add_option("--size", a->size, "small (CI) or full")->check(CLI::IsMember({"small", "full"}));
   val->add_option("--density-kernel", a->kernel, "warren or lucy")
       ->check(CLI::IsMember({"warren", "lucy"}));
+  val->add_option("--seed-offset", a->seed_offset,
+                  "added to every seed of the case: another sample of the same physics (default "
+                  "0: the seeds of the recorded results)");
   add_solver_flags(*val, a->flags);
   val->add_flag("--json", a->json, "print one JSON object");
   add_watchdog_flag(*val, a->flags);
@@ -44,11 +48,15 @@ FlowCommand add_validate_command(CLI::App& rockflow) {
             a->kernel == "lucy" ? sim::DensityKernelKind::Lucy : sim::DensityKernelKind::Warren;
         vo.sim = so;
         vo.verbose = root;
+        vo.seed_offset = a->seed_offset;
         ProgressMeter meter("validate " + a->case_name, std::cerr, root);
         meter.set_total(1e6 * (vo.size == CaseSize::Full ? c->work_full : c->work_small));
         vo.sim.on_run = [&meter](std::uint64_t steps, std::size_t n) { meter.advance(steps, n); };
         const auto t0 = std::chrono::steady_clock::now();
         CaseResult r = c->run(vo);
+        if (vo.seed_offset != 0)
+          r.notes.push_back("seed offset " + std::to_string(vo.seed_offset) +
+                            " (another sample than the recorded results)");
         meter.finish(r.pass() ? "pass" : "FAIL");
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         if (root) std::cout << (a->json ? format_case_json(r) + "\n" : format_case_text(r));

@@ -82,6 +82,10 @@ struct ValidateOptions {
   sim::DensityKernelKind density_kernel = sim::DensityKernelKind::Warren;
   sim::SimulationOptions sim;
   bool verbose = true;  // progress lines on stderr
+  // Added to every seed of a case's particles and thermostat (`--seed-offset`; 0: the seeds of
+  // the recorded results). Another offset is another sample of the same physics: how often a
+  // case passes over many offsets measures how firm its verdict is (docs/validation.md).
+  std::uint64_t seed_offset = 0;
 };
 
 // Small helpers the case files share: a progress line on stderr when verbose, a number with

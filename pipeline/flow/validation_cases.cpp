@@ -122,7 +122,7 @@ CaseResult run_eos_mdpd(const ValidateOptions& o) {
   if (o.density_kernel != sim::DensityKernelKind::Warren)
     r.notes.push_back("density kernel " + kernel +
                       ": the Warren fit was made with the papers' kernel; expect deviations");
-  std::uint64_t seed = 21;
+  std::uint64_t seed = 21 + o.seed_offset;
   for (double rho : {6.5, 7.0, 7.5, 8.0, 9.0}) {
     const auto s = make_bulk_mdpd(-40, 25, 0.75, 4.5, rho, box, seed++, o.density_kernel);
     const auto m = measure_bulk(s, o, 0.01, plan, "eos-mdpd rho=" + fmt(rho, 3));
@@ -167,7 +167,7 @@ CaseResult run_conservation(const ValidateOptions& o) {
   const bool full = o.size == CaseSize::Full;
   const double L = full ? 10 : 5;
   const double box[3] = {L, L, L};
-  auto s = make_bulk_mdpd(-40, 25, 0.75, 4.5, 7.0, box, 31, o.density_kernel);
+  auto s = make_bulk_mdpd(-40, 25, 0.75, 4.5, 7.0, box, 31 + o.seed_offset, o.density_kernel);
   s.model.precision = sim::Precision::Double;
   auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
   const std::uint64_t total = 10000, every = 100, skip = 1000;

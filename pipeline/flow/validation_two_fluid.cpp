@@ -332,7 +332,7 @@ CaseResult run_interfacial_tension(const ValidateOptions& o) {
       full ? std::vector<double>{-40, -35, -30, -25, -20, -15, -10, -5}
            : std::vector<double>{-40, -32, -24, -16, -5};
   std::vector<SlabRun> runs;
-  std::uint64_t seed = 62;
+  std::uint64_t seed = 62 + o.seed_offset;
   for (double a : values) runs.push_back(measure_slabs(a, g, o, seed++));
 
   // Miscible limit: at A_WN = A_WW = A_NN the two "fluids" are one, and gamma_WN = 0.
@@ -781,7 +781,7 @@ CaseResult run_contact_angle(const ValidateOptions& o) {
   const std::vector<double> values = full ? std::vector<double>{-40, -35, -30, -25, -20, -15, -10}
                                           : std::vector<double>{-40, -35, -30, -20, -10};
   std::vector<ContactRun> runs;
-  std::uint64_t seed = 72;
+  std::uint64_t seed = 72 + o.seed_offset;
   for (double a : values) runs.push_back(measure_contact(a, g, walls, o, seed++));
   auto run_at = [&](double a) -> const ContactRun& {
     for (const auto& run : runs)

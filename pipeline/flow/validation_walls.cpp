@@ -79,6 +79,10 @@ ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
   sim::BinGrid grid = sim::BinGrid::profile(2, bins, s.box.lo, s.box.hi);
   grid.type_mask = 1u;  // fluid only
   sim::BinnedAverage profile(grid);
+  // The same bins split into 2 x 2 columns: the density next to the wall per patch of wall.
+  sim::BinGrid patch_grid = grid;
+  patch_grid.cells = {2, 2, bins};
+  sim::BinnedAverage patches(patch_grid);
   constexpr int kBlocks = 16;
   const std::uint64_t samples = sample / every, per_block = samples / kBlocks;
   std::vector<std::vector<double>> block_sums(kBlocks);
@@ -86,6 +90,7 @@ ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
     sim->run(every);
     const auto sums = sim->bin_sums(grid);
     profile.add(sums);
+    patches.add(sim->bin_sums(patch_grid));
     auto& blk = block_sums[static_cast<size_t>(k / per_block)];
     if (blk.empty()) blk.assign(sums.size(), 0.0);
     for (size_t q = 0; q < sums.size(); ++q) blk[q] += sums[q];
@@ -160,7 +165,27 @@ ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
     ++nw;
   }
   r.wall_density = wr / nw;
-  r.wall_density_error = std::sqrt(wre) / nw;
+  // Its error: the wall particles are frozen in one random arrangement per seed, which thins
+  // the fluid next to them more or less, and the bins' block errors, which see only the thermal
+  // noise, came out 7 times below the spread over seeds at the small size (docs/validation.md,
+  // "How firm the small cases are"). The 8 patches (2 x 2 per wall) sample that disorder: the
+  // error is the larger of the bins' and the patches' standard error.
+  const auto patch_rho = patches.density();
+  std::vector<double> per_patch;
+  for (int side = 0; side < 2; ++side)
+    for (int column = 0; column < 4; ++column) {
+      double sum = 0;
+      int count = 0;
+      for (int b = 0; b < bins; ++b) {
+        const double z = (b + 0.5) * width;
+        const bool next = side == 0 ? (z > w && z < w + 0.5) : (z < L[2] - w && z > L[2] - w - 0.5);
+        if (!next) continue;
+        sum += patch_rho.mean[static_cast<size_t>(b) * 4 + static_cast<size_t>(column)];
+        ++count;
+      }
+      per_patch.push_back(sum / count);
+    }
+  r.wall_density_error = std::max(std::sqrt(wre) / nw, block_average(per_patch, 0).error);
   r.wall_temperature = wt / nw;
   r.wall_temperature_error = std::sqrt(wte) / nw;
   for (int b = 0; b < bins; ++b) {
@@ -201,10 +226,15 @@ CaseResult run_poiseuille_walls_case(const ValidateOptions& o) {
       judged("viscosity between walls", c.eta, c.eta_error, kBulkViscosity, eta_tol,
              "bulk `viscosity` case, full size: 6.97 +- 0.057; issue: within 5%" +
                  std::string(o.size == CaseSize::Small ? " (+ 2 sigma at the small size)" : "")));
-  r.quantities.push_back(judged("fluid density next to the wall / bulk",
-                                c.wall_density / c.bulk_density,
-                                c.wall_density_error / c.bulk_density, 1.0, 0.05,
-                                "issue: within 5% of bulk (first 0.5 rc from each wall surface)"));
+  // 5%, widened by two standard errors at the small size, as the viscosity: the wall model thins
+  // the first layer by about 4.6% (full size), and over 28 seeds the small channel's value
+  // spread by 0.008 about 0.955 (docs/validation.md).
+  const double rho_sigma = c.wall_density_error / c.bulk_density;
+  r.quantities.push_back(
+      judged("fluid density next to the wall / bulk", c.wall_density / c.bulk_density, rho_sigma,
+             1.0, 0.05 + (o.size == CaseSize::Small ? 2 * rho_sigma : 0.0),
+             "issue: within 5% of bulk (first 0.5 rc from each wall surface)" +
+                 std::string(o.size == CaseSize::Small ? " (+ 2 sigma at the small size)" : "")));
   r.quantities.push_back(judged("temperature next to the wall / bulk",
                                 c.wall_temperature / c.bulk_temperature,
                                 c.wall_temperature_error / c.bulk_temperature, 1.0, 0.05,

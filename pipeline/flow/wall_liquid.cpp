@@ -15,7 +15,8 @@ namespace mesorock::pipeline::wall_liquid {
 BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
                               const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
                               std::uint64_t seed, const ValidateOptions& o) {
-  BuiltSystem bulk = make_bulk_mdpd(kA, kB, kRd, kGamma, kRho, L, seed, o.density_kernel);
+  BuiltSystem bulk =
+      make_bulk_mdpd(kA, kB, kRd, kGamma, kRho, L, seed + o.seed_offset, o.density_kernel);
   {
     auto sim = sim::make_simulation(bulk.model, bulk.box, bulk.particles, 0.01, o.sim);
     sim->run(equilibrate);
