@@ -1,7 +1,9 @@
 #pragma once
-// The kernel bodies of one step, shared by the CPU backend (an OpenMP loop over particles) and
-// the CUDA backend (one thread per particle). Each body handles one particle and writes only that
-// particle's outputs, so neither backend needs atomics.
+// The kernel bodies of one step, shared by the CPU backend (OpenMP loops) and the CUDA backend
+// (one thread per particle). The per-particle bodies write only that particle's outputs; the
+// pair passes also have a Newton form (each pair once, added to both particles) that the CPU runs
+// over its half list (sim/half_list.h), whose scheduling keeps threads apart: no atomics either
+// way.
 //
 // Step (velocity Verlet, DPD variant of Groot & Warren 1997 with lambda; the 2020 paper's
 // Algorithm 1):
@@ -149,9 +151,9 @@ MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visi
 // calls the body in place pays for about 190 candidates per particle instead of its 29
 // neighbours. Collecting first and visiting afterwards runs the body once per neighbour with the
 // lanes in step. The slots live in shared memory (slot k of a thread at slot[k * stride]). The
-// visiting order is the scan order, so the sums, and hence the results, are the same as those of
-// the CPU, which visits in place and passes an empty stash. (MESOROCK_NO_NEIGHBOUR_STASH builds
-// the GPU without it, for the side-by-side benchmark in docs/benchmarks.md.)
+// visiting order is the scan order, so the sums are those of the in-place scan (an empty stash).
+// (MESOROCK_NO_NEIGHBOUR_STASH builds the GPU without it, for the side-by-side benchmark in
+// docs/benchmarks.md.)
 struct NeighbourStash {
   static constexpr int kCapacity = 48;  // about 1.6x the neighbours of a liquid at rho = 7
   int* slot = nullptr;

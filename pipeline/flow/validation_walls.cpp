@@ -48,6 +48,28 @@ struct ChannelResult {
   std::vector<double> z, u, u_err, rho, temperature;
 };
 
+// The density next to each wall (the bins within 0.5 rc of its surface at w and Lz - w) in each
+// of the 2 x 2 columns of `patches`: 8 values.
+std::vector<double> wall_patch_densities(const sim::BinnedAverage& patches, int bins, double width,
+                                         double w, double Lz) {
+  const auto rho = patches.density();
+  std::vector<double> per_patch;
+  for (int side = 0; side < 2; ++side)
+    for (int column = 0; column < 4; ++column) {
+      double sum = 0;
+      int count = 0;
+      for (int b = 0; b < bins; ++b) {
+        const double z = (b + 0.5) * width;
+        const bool next = side == 0 ? (z > w && z < w + 0.5) : (z < Lz - w && z > Lz - w - 0.5);
+        if (!next) continue;
+        sum += rho.mean[static_cast<size_t>(b) * 4 + static_cast<size_t>(column)];
+        ++count;
+      }
+      per_patch.push_back(count > 0 ? sum / count : 0.0);
+    }
+  return per_patch;
+}
+
 ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
   const bool full = o.size == CaseSize::Full;
   const double w = 1.5;             // wall thickness, the wall surface is at z = w
@@ -170,21 +192,7 @@ ChannelResult measure_channel(const ValidateOptions& o, std::uint64_t seed) {
   // noise, came out 7 times below the spread over seeds at the small size (docs/validation.md,
   // "How firm the small cases are"). The 8 patches (2 x 2 per wall) sample that disorder: the
   // error is the larger of the bins' and the patches' standard error.
-  const auto patch_rho = patches.density();
-  std::vector<double> per_patch;
-  for (int side = 0; side < 2; ++side)
-    for (int column = 0; column < 4; ++column) {
-      double sum = 0;
-      int count = 0;
-      for (int b = 0; b < bins; ++b) {
-        const double z = (b + 0.5) * width;
-        const bool next = side == 0 ? (z > w && z < w + 0.5) : (z < L[2] - w && z > L[2] - w - 0.5);
-        if (!next) continue;
-        sum += patch_rho.mean[static_cast<size_t>(b) * 4 + static_cast<size_t>(column)];
-        ++count;
-      }
-      per_patch.push_back(sum / count);
-    }
+  const std::vector<double> per_patch = wall_patch_densities(patches, bins, width, w, L[2]);
   r.wall_density_error = std::max(std::sqrt(wre) / nw, block_average(per_patch, 0).error);
   r.wall_temperature = wt / nw;
   r.wall_temperature_error = std::sqrt(wte) / nw;
