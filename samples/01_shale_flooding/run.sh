@@ -7,7 +7,7 @@
 #   bash samples/01_shale_flooding/run.sh [--out DIR] [--size small|full]
 #                                          [--rockprep PATH] [--rockflow PATH] [--threads N]
 #
-# small (CI, a few tens of seconds on two cores): a 20 x 24 x 32 voxel stack (10 x 12 x 16 rc),
+# small (CI, about 10 s on two cores): a 20 x 24 x 32 voxel stack (10 x 12 x 16 rc),
 # 300 flooding steps. full: 40 x 48 x 64 voxels, 5,000 flooding steps.
 # Checks at the end (exit code 1 when one fails): the packed set has walls of both solid phases
 # and no fluid in the deep solid (rockprep's own count check), no working fluid entered the
