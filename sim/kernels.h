@@ -356,6 +356,16 @@ MESO_HD MESO_INLINE PairForce<Real> pair_force(const StepView<Real>& v, const Pa
   return f;
 }
 
+// |F_ij| / r for particle i (its side `self`) and j: F_ij = s d_ij; 0 for coincident particles.
+template <class Real, class Conservative, class Thermostat, class WallModel>
+MESO_HD MESO_INLINE Real pair_force_over_r(const StepView<Real>& v, const PairSide<Real>& self,
+                                           int j, Real dx, Real dy, Real dz, Real r2) {
+  const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
+      v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
+  if (f.r == Real(0)) return Real(0);
+  return (f.conservative + f.dissipative + f.random) / f.r;
+}
+
 // The body force g_type of particle i (with its sign, for a position-dependent one) added to f.
 template <class Real, class BodyForce>
 MESO_HD MESO_INLINE void add_body_force([[maybe_unused]] const StepView<Real>& v,
@@ -380,10 +390,8 @@ MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i,
   if (!v.frozen(i) && !v.ghost(i)) {
     const PairSide<Real> self = pair_side<Real, Conservative, Thermostat>(v, i);
     for_each_neighbour_stashed(v, i, stash, [&](int j, Real dx, Real dy, Real dz, Real r2) {
-      const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
-          v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
-      if (f.r == Real(0)) return;
-      const Real s = (f.conservative + f.dissipative + f.random) / f.r;
+      const Real s =
+          pair_force_over_r<Real, Conservative, Thermostat, WallModel>(v, self, j, dx, dy, dz, r2);
       fx += s * dx;
       fy += s * dy;
       fz += s * dz;
@@ -482,10 +490,8 @@ MESO_HD MESO_INLINE void forces_of_pairs(const StepView<Real>& v, int i, const i
     Real dx, dy, dz;
     const Real r2 = separation2(v, i, j, dx, dy, dz);
     if (!(r2 < Real(1))) continue;
-    const PairForce<Real> f = pair_force<Real, Conservative, Thermostat, WallModel>(
-        v, self, pair_side<Real, Conservative, Thermostat>(v, j), dx, dy, dz, r2);
-    if (f.r == Real(0)) continue;
-    const Real s = (f.conservative + f.dissipative + f.random) / f.r;
+    const Real s =
+        pair_force_over_r<Real, Conservative, Thermostat, WallModel>(v, self, j, dx, dy, dz, r2);
     fx += s * dx;
     fy += s * dy;
     fz += s * dz;
