@@ -225,7 +225,8 @@ class CpuEngine final : public Engine<Real>,
   void newton_pass(const StepView<Real>& v, const Pass& pass) {
     for_each(v, [&](const StepView<Real>& w, int i) { pass.begin(w, i); });
     list_.for_each_particle(v, pass, [&] { poll_setup(); });
-    for_each(v, [&](const StepView<Real>& w, int i) { pass.finish(w, i); });
+    if constexpr (Pass::kFinishes)
+      for_each(v, [&](const StepView<Real>& w, int i) { pass.finish(w, i); });
   }
 
   // Set-up (an interrupt check is set, Engine::set_interrupt_check; never in a decomposed run,

@@ -421,10 +421,10 @@ MESO_HD MESO_INLINE Real separation2(const StepView<Real>& v, int i, int j, Real
 }
 
 // rho (when DensityKernel is not void) and the wall sum of phi, before the pairs.
-template <class Real, class DensityKernel>
-MESO_HD MESO_INLINE void begin_sums(const StepView<Real>& v, int i, bool walls) {
+template <class Real, class DensityKernel, bool kWalls>
+MESO_HD MESO_INLINE void begin_sums(const StepView<Real>& v, int i) {
   if constexpr (!std::is_void<DensityKernel>::value) v.rho[i] = Real(0);
-  if (walls) v.bvf[i] = Real(0);
+  if constexpr (kWalls) v.bvf[i] = Real(0);
 }
 
 // The pairs of particle i in the density pass and, with walls, the wall sum of phi (as in
@@ -467,8 +467,8 @@ MESO_HD MESO_INLINE void sums_of_pairs(const StepView<Real>& v, int i, const int
 
 // phi_i = (wall sum) / n_w; a wall particle's stays 0 (it never gets a wall sum).
 template <class Real>
-MESO_HD MESO_INLINE void finish_sums(const StepView<Real>& v, int i, bool walls) {
-  if (walls) v.bvf[i] *= v.walls.inv_wall_density;
+MESO_HD MESO_INLINE void finish_sums(const StepView<Real>& v, int i) {
+  v.bvf[i] *= v.walls.inv_wall_density;
 }
 
 template <class Real>

@@ -88,14 +88,17 @@ struct SumsPass {
       density_of_particle<Real, DensityKernel>(v, i);
   }
   MESO_HD MESO_INLINE void begin(const StepView<Real>& v, int i) const {
-    begin_sums<Real, DensityKernel>(v, i, kWalls);
+    begin_sums<Real, DensityKernel, kWalls>(v, i);
   }
   MESO_HD MESO_INLINE void pairs(const StepView<Real>& v, int i, const int* first, const int*,
                                  const int* last) const {
     sums_of_pairs<Real, DensityKernel, kWalls>(v, i, first, last);
   }
-  MESO_HD MESO_INLINE void finish(const StepView<Real>& v, int i) const {
-    finish_sums(v, i, kWalls);
+  // Only phi needs a finish (its scale): without walls the Newton pass skips the loop.
+  static constexpr bool kFinishes = kWalls;
+  MESO_HD MESO_INLINE void finish([[maybe_unused]] const StepView<Real>& v,
+                                  [[maybe_unused]] int i) const {
+    if constexpr (kWalls) finish_sums(v, i);
   }
 };
 
@@ -109,6 +112,7 @@ struct ForcePass {
                                                                                           stash);
   }
   MESO_HD MESO_INLINE void begin(const StepView<Real>& v, int i) const { begin_forces(v, i); }
+  static constexpr bool kFinishes = true;
   MESO_HD MESO_INLINE void pairs(const StepView<Real>& v, int i, const int* first,
                                  const int* force_end, const int*) const {
     forces_of_pairs<Real, C, T, typename Terms::wall_model>(v, i, first, force_end);
