@@ -500,6 +500,9 @@ class CpuEngine final : public Engine<Real>,
       if (s.origin[i] >= 0) slot_index_[static_cast<size_t>(s.origin[i])] = i;
   }
 
+  // The half list is rebuilt with every sort, so a correction always re-sorts here.
+  static constexpr bool kSumsNearCorrections = false;
+
   // Finds every penetrating particle against the same positions, then applies the corrections.
   int correct_penetrations() {
     const StepView<Real> v = s_->view();

@@ -54,7 +54,19 @@ struct StepView {
   bool stale_cells = false;
 
   // Cell list: particles are stored sorted by cell; cell c holds [cell_start[c], cell_start[c+1]).
+  // With frozen_part > 0 (the GPU, in a scene with frozen types) the storage holds the mobile
+  // particles first and the frozen ones after them, each part sorted by cell: cell c's frozen
+  // particles are [cell_start[frozen_part + c], cell_start[frozen_part + c + 1]), frozen_part
+  // being the cell count. Why: a warp then holds mobile or frozen particles, not both, so the
+  // passes that skip frozen particles skip whole warps.
   const int* cell_start = nullptr;
+  int frozen_part = 0;
+  // With a frozen part, the sums of each frozen particle over its frozen neighbours, which hold
+  // while the frozen particles stay what they are (the k-th frozen particle's at k; frozen_rho
+  // with a density, frozen_bvf with the wall model). A pass then sums only a frozen particle's
+  // mobile neighbours. Null: everything is summed every time.
+  const Real* frozen_rho = nullptr;
+  const Real* frozen_bvf = nullptr;
 
   Box<Real> box;
   CellGrid<Real> grid;
@@ -85,8 +97,13 @@ struct StepView {
 // cell (i itself included), in storage order within each row of cells along x. Periodic images
 // come from per-cell shifts (no per-pair branch) except on axes too short for the stencil, where
 // minimum_image decides per pair. Either way dx_ij = -dx_ji exactly.
+// Parts (see StepView::frozen_part): 0 the mobile particles, 1 the frozen ones; by default every
+// part there is.
+enum class Parts : int { All = 0, MobileOnly = 1, FrozenOnly = 2 };
+
 template <class Real, class Visit>
-MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visit&& visit) {
+MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visit&& visit,
+                                            Parts parts = Parts::All) {
   const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
   const CellGrid<Real>& g = v.grid;
   const int cx = g.coordinate(xi, v.box.lo[0], 0);
@@ -101,6 +118,9 @@ MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visi
   const int x_first[3] = {rx.begin + nx, rx.begin < 0 ? 0 : rx.begin, 0};
   const int x_last[3] = {nx, rx.end > nx ? nx : rx.end, rx.end - nx};
   const Real x_shift[3] = {-v.box.length[0], Real(0), v.box.length[0]};
+  // Mobile, then frozen (see StepView); without a frozen part, one part of everything.
+  const int first_part = parts == Parts::FrozenOnly ? 1 : 0;
+  const int last_part = v.frozen_part == 0 || parts == Parts::MobileOnly ? 1 : 2;
   for (int kz = rz.begin; kz < rz.end; ++kz) {
     Real sz;
     const int wz = g.wrap(kz, 2, v.box.length[2], sz);
@@ -111,18 +131,51 @@ MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visi
       MESO_UNROLL
       for (int run = 0; run < 3; ++run) {
         if (x_first[run] >= x_last[run]) continue;
-        const int end = v.cell_start[row + x_last[run]];
         const Real sx = x_shift[run];
-        for (int j = v.cell_start[row + x_first[run]]; j < end; ++j) {
-          Real dx = (xi - v.x[j]) - sx;
-          Real dy = (yi - v.y[j]) - sy;
-          Real dz = (zi - v.z[j]) - sz;
-          if (rx.all || v.stale_cells) dx = v.box.minimum_image(dx, 0);
-          if (ry.all || v.stale_cells) dy = v.box.minimum_image(dy, 1);
-          if (rz.all || v.stale_cells) dz = v.box.minimum_image(dz, 2);
-          visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+        for (int part = first_part; part < last_part; ++part) {
+          const int base = row + part * v.frozen_part;
+          const int end = v.cell_start[base + x_last[run]];
+          for (int j = v.cell_start[base + x_first[run]]; j < end; ++j) {
+            Real dx = (xi - v.x[j]) - sx;
+            Real dy = (yi - v.y[j]) - sy;
+            Real dz = (zi - v.z[j]) - sz;
+            if (rx.all || v.stale_cells) dx = v.box.minimum_image(dx, 0);
+            if (ry.all || v.stale_cells) dy = v.box.minimum_image(dy, 1);
+            if (rz.all || v.stale_cells) dz = v.box.minimum_image(dz, 2);
+            visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+          }
         }
       }
+    }
+  }
+}
+
+// The cell particle i's position falls in (the cell sort's key).
+template <class Real>
+MESO_HD MESO_INLINE int cell_of(const StepView<Real>& v, int i) {
+  const CellGrid<Real>& g = v.grid;
+  return g.index(g.coordinate(v.x[i], v.box.lo[0], 0), g.coordinate(v.y[i], v.box.lo[1], 1),
+                 g.coordinate(v.z[i], v.box.lo[2], 2));
+}
+
+// Sets marks[c] = 1 for every cell c of the stencil around `cell` (the cells for_each_candidate
+// scans from a particle in it). The stencil relation is symmetric, so the marked cells hold every
+// particle whose scan sees a particle of `cell`.
+template <class Real, class Mark>
+MESO_HD MESO_INLINE void mark_stencil(const StepView<Real>& v, int cell, Mark* marks) {
+  const CellGrid<Real>& g = v.grid;
+  const int cx = cell % g.dims[0], cy = (cell / g.dims[0]) % g.dims[1];
+  const int cz = cell / (g.dims[0] * g.dims[1]);
+  const auto rx = g.axis_range(cx, 0, v.box.periodic[0]);
+  const auto ry = g.axis_range(cy, 1, v.box.periodic[1]);
+  const auto rz = g.axis_range(cz, 2, v.box.periodic[2]);
+  Real shift;
+  for (int kz = rz.begin; kz < rz.end; ++kz) {
+    const int wz = g.wrap(kz, 2, v.box.length[2], shift);
+    for (int ky = ry.begin; ky < ry.end; ++ky) {
+      const int wy = g.wrap(ky, 1, v.box.length[1], shift);
+      for (int kx = rx.begin; kx < rx.end; ++kx)
+        marks[g.index(g.wrap(kx, 0, v.box.length[0], shift), wy, wz)] = Mark(1);
     }
   }
 }
@@ -140,10 +193,14 @@ MESO_HD MESO_INLINE Real displacement2(const StepView<Real>& v, const Real* x0, 
 
 // Calls visit(j, dx, dy, dz, r2) for every particle j != i within the cutoff rc = 1.
 template <class Real, class Visit>
-MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visit&& visit) {
-  for_each_candidate(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
-    if (r2 < Real(1) && j != i) visit(j, dx, dy, dz, r2);
-  });
+MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visit&& visit,
+                                            Parts parts = Parts::All) {
+  for_each_candidate(
+      v, i,
+      [&](int j, Real dx, Real dy, Real dz, Real r2) {
+        if (r2 < Real(1) && j != i) visit(j, dx, dy, dz, r2);
+      },
+      parts);
 }
 
 // A per-thread list of the neighbour indices a scan found, visited after the scan. Why: on the
@@ -207,42 +264,91 @@ MESO_HD MESO_INLINE constexpr Real coincident_r2() {
 
 // ---------------------------------------------------------------------------------------------
 // Density pass: rho_i = sum_{j != i} w(r_ij). Frozen particles need it too (their rho enters the
-// many-body force on the fluid).
+// many-body force on the fluid). With the frozen particles' static sums (StepView::frozen_rho),
+// a frozen particle adds only its mobile neighbours to them.
 template <class Real, class DensityKernel>
-MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
+MESO_HD MESO_INLINE void add_density(const StepView<Real>& v, int i, Parts parts, Real& rho) {
   // In place, not stashed: this body is cheap, and the stash measured slower here (H200, porous
   // 16 M: 7.8 ms per pass with it, 6.7 without; docs/benchmarks.md).
-  if (v.ghost(i)) return;  // a ghost's density comes from its owner
-  Real rho = 0;
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
-  for_each_neighbour(v, i, [&](int, Real, Real, Real, Real r2) {
-    if (r2 < rd2) rho += DensityKernel::weight(real_sqrt(r2), rd);
-  });
+  for_each_neighbour(
+      v, i,
+      [&](int, Real, Real, Real, Real r2) {
+        if (r2 < rd2) rho += DensityKernel::weight(real_sqrt(r2), rd);
+      },
+      parts);
+}
+
+template <class Real, class DensityKernel>
+MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
+  if (v.ghost(i)) return;  // a ghost's density comes from its owner
+  Real rho = 0;
+  Parts parts = Parts::All;
+  if (v.frozen_rho && v.frozen(i)) {
+    rho = v.frozen_rho[i - v.cell_start[v.frozen_part]];
+    parts = Parts::MobileOnly;
+  }
+  add_density<Real, DensityKernel>(v, i, parts, rho);
   v.rho[i] = rho;
 }
 
-// Density (when DensityKernel is not void) and the boundary volume fraction of the wall model
-// (sim/wall_model.h) in one neighbour loop:
+// Density (when DensityKernel is not void) and the wall model's sum of particle i over the
+// neighbours in `parts`, added to rho and wall:
 //   phi_i = (1 / n_w) sum_{j in wall} W(r_ij),  W the Lucy kernel of support rc,
-// for particles that are not wall themselves (phi = 0 for wall particles).
+// for particles that are not wall themselves.
+template <class Real, class DensityKernel>
+MESO_HD MESO_INLINE void add_density_and_wall(const StepView<Real>& v, int i, Parts parts,
+                                              Real& rho, Real& wall) {
+  constexpr bool kDensity = !std::is_void<DensityKernel>::value;
+  const Real rd = v.rd;
+  const Real rd2 = rd * rd;
+  const bool fluid = !v.walls.is_wall(v.type[i]);
+  for_each_neighbour(
+      v, i,
+      [&](int j, Real, Real, Real, Real r2) {
+        const Real r = real_sqrt(r2);
+        if constexpr (kDensity) {
+          if (r2 < rd2) rho += DensityKernel::weight(r, rd);
+        }
+        if (fluid && v.walls.is_wall(v.type[j])) wall += bvf_weight(r);
+      },
+      parts);
+}
+
+// Density and the boundary volume fraction of the wall model (sim/wall_model.h) in one neighbour
+// loop (phi = 0 for wall particles).
 template <class Real, class DensityKernel>
 MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, int i) {
   constexpr bool kDensity = !std::is_void<DensityKernel>::value;
   if (v.ghost(i)) return;  // a ghost's sums come from its owner
   Real rho = 0, wall = 0;
-  const Real rd = v.rd;
-  const Real rd2 = rd * rd;
-  const bool fluid = !v.walls.is_wall(v.type[i]);
-  for_each_neighbour(v, i, [&](int j, Real, Real, Real, Real r2) {
-    const Real r = real_sqrt(r2);
-    if constexpr (kDensity) {
-      if (r2 < rd2) rho += DensityKernel::weight(r, rd);
-    }
-    if (fluid && v.walls.is_wall(v.type[j])) wall += bvf_weight(r);
-  });
+  Parts parts = Parts::All;
+  if (v.frozen_bvf && v.frozen(i)) {
+    const int k = i - v.cell_start[v.frozen_part];
+    if constexpr (kDensity) rho = v.frozen_rho[k];
+    wall = v.frozen_bvf[k];
+    parts = Parts::MobileOnly;
+  }
+  add_density_and_wall<Real, DensityKernel>(v, i, parts, rho, wall);
   if constexpr (kDensity) v.rho[i] = rho;
-  v.bvf[i] = fluid ? wall * v.walls.inv_wall_density : Real(0);
+  v.bvf[i] = v.walls.is_wall(v.type[i]) ? Real(0) : wall * v.walls.inv_wall_density;
+}
+
+// The static sums of frozen particle i over its frozen neighbours (StepView::frozen_rho): rho
+// and the unscaled wall sum, at k = i - the first frozen position.
+template <class Real, class DensityKernel, bool kWalls>
+MESO_HD MESO_INLINE void frozen_sums_of_particle(const StepView<Real>& v, int i, Real* rho_out,
+                                                 Real* wall_out) {
+  const int k = i - v.cell_start[v.frozen_part];
+  Real rho = 0, wall = 0;
+  if constexpr (kWalls) {
+    add_density_and_wall<Real, DensityKernel>(v, i, Parts::FrozenOnly, rho, wall);
+    wall_out[k] = wall;
+  } else {
+    add_density<Real, DensityKernel>(v, i, Parts::FrozenOnly, rho);
+  }
+  if constexpr (!std::is_void<DensityKernel>::value) rho_out[k] = rho;
 }
 
 // The corrector of the wall model for particle i after the drift (the predictor): a mobile

@@ -28,13 +28,15 @@ double host_bytes_per_particle(Precision p);
 inline constexpr double kHostBytesPerCell = 8;
 
 // Device bytes per particle of the CUDA engine (its buffers, see CudaEngine::device_bytes()):
-//   18 Real (x..rho 13, the sort scratch, phi, the positions at the last sort x0 y0 z0),
+//   20 Real (x..rho 13, the sort scratch, phi, the positions at the last sort x0 y0 z0, a
+//   frozen particle's static rho and phi),
 //   type, origin, int scratch (int32) 12 B, id and its scratch (int64) 16 B, cell, cell_sorted,
 //   index, perm (int) 16 B, CUB's radix-sort temporary (~ one key-value pair) 8 B
-// = 52 + 18 Real: 196 B in double precision, 124 B in single. Per cell: cell_start, 4 B; the
-// solid grid: 1 B per voxel.
+// = 52 + 20 Real: 212 B in double precision, 132 B in single. Per cell: cell_start, 4 B, twice
+// with frozen types (their own part of the cell list), and the wall model's marks near
+// corrections, 1 B; the solid grid: 1 B per voxel.
 double device_bytes_per_particle(Precision p);
-inline constexpr double kDeviceBytesPerCell = 4;
+inline constexpr double kDeviceBytesPerCell = 9;
 
 // Memory available now, or nullopt where it cannot be read; `source` names the limit that set it
 // ("MemAvailable", "cgroup memory.max", "RLIMIT_AS (ulimit -v)", "cudaMemGetInfo, device 0").

@@ -200,7 +200,7 @@ template <class Real>
 std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& opt) {
   if (opt.backend == BackendKind::CPU) return make_cpu_engine<Real>(model, opt.threads);
 #if defined(MESOROCK_HAVE_CUDA)
-  return make_cuda_engine<Real>(model, opt.device, opt.profile);
+  return make_cuda_engine<Real>(model, opt.device, opt.profile, opt.frozen_part);
 #else
   throw DeviceError(cuda_unavailable_reason());
 #endif

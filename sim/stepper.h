@@ -14,6 +14,10 @@
 //                                          its half list)
 //   sort_positions_stale(), remember_sort_positions(), any_moved_beyond(limit2)
 //   correct_penetrations()                 the wall model's corrector; returns the count
+//   kSumsNearCorrections, corrections_marked(), resort_after_correction(),
+//   pair_sums_near_corrections(view, pass) optional (the GPU): after a correction, a re-sort
+//                                          only if a corrected particle left its cell, and the
+//                                          sums again near the corrected particles only
 //   slab_half_kicks(), slab_forces(kick)   the rigid slabs' reductions and kicks
 //   inject(), watchdog_step()              per-step events, after the second kick
 //   next_step(), finish_steps(steps), mark(phase), poll_setup()
@@ -127,6 +131,10 @@ class Stepper {
  protected:
   using C = typename Terms::conservative;
   using W = typename Terms::wall_model;
+  // The density and phi pass (the density kernel is void without a many-body term).
+  using Sums =
+      SumsPass<Real, std::conditional_t<C::needs_density, typename C::density_kernel, void>,
+               W::enabled>;
 
   // The domain's hooks: SerialHooks on one rank, the decomposition's otherwise.
   void attach_hooks(StepHooks<Real>& hooks) { hooks_ = &hooks; }
@@ -177,10 +185,13 @@ class Stepper {
     b.mark(StepPhase::Resort);
     if (corrected) {
       // Corrected particles moved: sort and sum again so the cell list and rho stay exact (and,
-      // decomposed, their ghosts follow them first).
+      // decomposed, their ghosts follow them first). A backend that marked the cells near the
+      // corrections sums again only there, with the same result.
       hooks_->refresh_ghosts(b);
-      sort();
-      local_sums();
+      if (!sums_near_corrections()) {
+        sort();
+        local_sums();
+      }
       hooks_->sync_sums(b);
     }
     b.mark(StepPhase::Forces);
@@ -211,11 +222,23 @@ class Stepper {
     return b.any_moved_beyond(half * half);
   }
 
+  // The sums again near this step's corrections only, where the backend offers it (the GPU) and
+  // the run is on one rank; false: nothing done, sort and sum in full.
+  bool sums_near_corrections() {
+    Backend& b = backend();
+    if constexpr (Backend::kSumsNearCorrections && W::enabled) {
+      if (hooks_->distributed() || !b.corrections_marked()) return false;
+      b.resort_after_correction();
+      b.pair_sums_near_corrections(b.view(), Sums{});
+      return true;
+    } else {
+      return false;
+    }
+  }
+
   void local_sums() {
     Backend& b = backend();
-    using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
-    if constexpr (W::enabled || C::needs_density)
-      b.pair_sums(b.view(), SumsPass<Real, K, W::enabled>{});
+    if constexpr (W::enabled || C::needs_density) b.pair_sums(b.view(), Sums{});
   }
 
   StepHooks<Real>* hooks_ = nullptr;

@@ -8,7 +8,8 @@
 namespace mesorock::pipeline {
 
 struct BenchOptions {
-  std::string case_name = "bulk";  // bulk | porous
+  std::string case_name = "bulk";  // bulk | porous | rock
+  std::string solid_file;          // rock: the segmented image (rockprep's solid.h5)
   std::int64_t particles = 200000;
   std::uint64_t steps = 200;
   sim::Precision precision = sim::Precision::Single;
@@ -29,6 +30,10 @@ struct BenchResult {
   bool decomposed = false;  // the decomposed solver (sim/domain), even on one rank
   double seconds = 0;
   double mps = 0;  // million particle-steps per second
+  // The particles that move (not frozen), and million of their particle-steps per second: the
+  // figure to set against a bulk liquid of that many particles.
+  std::int64_t mobile_particles = 0;
+  double mobile_mps = 0;
   double setup_seconds = 0;
   double device_bytes_per_particle = 0;  // 0 on the CPU
   std::string profile;                   // per-pass GPU times with --profile

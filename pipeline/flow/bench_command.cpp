@@ -1,4 +1,4 @@
-// `rockflow bench`: million particle-steps per second of a bulk or porous case.
+// `rockflow bench`: million particle-steps per second of a bulk, porous or rock case.
 #include <algorithm>
 #include <iostream>
 
@@ -16,13 +16,17 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
     bool json = false, compare_cpu = false, profile = false, decompose = false;
     int reorder_every = 1;
     double skin = 0;
+    std::string frozen_part = "on";
     int cells_per_rc = sim::SimulationOptions{}.cells_per_cutoff;
   };
   auto a = std::make_shared<Args>();
   CLI::App* bench = rockflow.add_subcommand("bench", "measure million particle-steps per second");
-  bench->add_option("--case", a->bo.case_name, "bulk or porous")
-      ->check(CLI::IsMember({"bulk", "porous"}))
+  bench->add_option("--case", a->bo.case_name, "bulk, porous or rock (needs --solid)")
+      ->check(CLI::IsMember({"bulk", "porous", "rock"}))
       ->capture_default_str();
+  bench->add_option("--solid", a->bo.solid_file,
+                    "rock: a segmented image (rockprep's solid.h5), extended by mirror copies "
+                    "to --particles");
   bench->add_option("--particles", a->bo.particles, "particle count")->capture_default_str();
   bench->add_option("--steps", a->bo.steps, "timed steps")->capture_default_str();
   add_solver_flags(*bench, a->flags);
@@ -43,6 +47,12 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
       ->check(CLI::Range(0.0, 1.0));
   bench->add_flag("--decompose", a->decompose,
                   "run the decomposed (MPI) solver even on one rank, to measure its cost");
+  bench
+      ->add_option("--frozen-part", a->frozen_part,
+                   "CUDA: store frozen particles apart, sorted once (on), or mixed with the "
+                   "mobile ones (off: only to measure what it saves)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
   bench->add_flag("--profile", a->profile,
                   "CUDA: also time each pass (kick, sort, density, force)");
   bench->add_option("--cells-per-rc", a->cells_per_rc, "cell-list cells per cutoff (1-4)")
@@ -55,6 +65,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         bo.sim = solver_options(a->flags, std::move(world));
         const bool root = !bo.sim.comm || bo.sim.comm->rank() == 0;  // rank 0 alone prints
         bo.sim.profile = a->profile;
+        bo.sim.frozen_part = a->frozen_part == "on";
         bo.sim.cells_per_cutoff = a->cells_per_rc;
         bo.sim.reorder_every = a->reorder_every;
         bo.sim.skin = a->skin;

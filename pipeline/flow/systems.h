@@ -27,4 +27,16 @@ BuiltSystem make_bulk_dpd(double a, double gamma, double rho, const double L[3],
 // = 4.5, g_z = 0.02 on the fluid, periodic. Returns about 1962 particles per cell.
 BuiltSystem make_porous_benchmark(int nx, int nz, std::uint64_t seed);
 
+// A real-rock scene for the benchmarks, from a segmented image (rockprep's solid.h5) at its
+// voxel size: the image is extended by mirror copies to a periodic cube of about `particles`
+// particles, as rockprep's permeability layout packs a sample: fluid (density 6.5, random) in
+// the pore voxels, frozen wall particles (density 8, a simple cubic lattice) in the solid voxels
+// within 1 rc of the pore (whole voxels along each axis, as rockprep's wall sweep), the grain
+// interiors empty and kept out of by the solid grid; the wall model of Li et al. 2018 on; B = 25,
+// rd = 0.75, gamma = 4.5, A = -40 within each type and -18 between fluid and wall (rockprep's
+// defaults), g_x = 0.02 on the fluid; Maxwell velocities at kBT = 1. Relax it at dt = 0.002 first
+// (rockprep's scenes do): the random fluid next to the wall runs away at dt = 0.01.
+BuiltSystem make_rock_benchmark(const sim::SolidMask& image, std::int64_t particles,
+                                std::uint64_t seed);
+
 }  // namespace mesorock::pipeline

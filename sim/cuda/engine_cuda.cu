@@ -99,23 +99,32 @@ __global__ void for_each_kernel(StepView<Real> v, Body body) {
   if (i < v.n) body(v, i);
 }
 
+// The sort keys of particles [0, count): the cell, offset by the cell count for a frozen one
+// (StepView::frozen_part).
 template <class Real>
-__global__ void cell_index_kernel(StepView<Real> v, int* cell, int* index) {
+__global__ void cell_index_kernel(StepView<Real> v, int count, int* cell, int* index) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= v.n) return;
-  cell[i] = v.grid.index(v.grid.coordinate(v.x[i], v.box.lo[0], 0),
-                         v.grid.coordinate(v.y[i], v.box.lo[1], 1),
-                         v.grid.coordinate(v.z[i], v.box.lo[2], 2));
+  if (i >= count) return;
+  cell[i] = cell_of(v, i) + (v.frozen_part > 0 && v.frozen(i) ? v.frozen_part : 0);
   index[i] = i;
 }
 
-// cell_start[c] = first sorted position with cell >= c (sorted_cell is non-decreasing).
-__global__ void cell_start_kernel(const int* sorted_cell, int n, int ncells, int* cell_start) {
-  const int k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k > n) return;
-  const int prev = k == 0 ? -1 : sorted_cell[k - 1];
-  const int cur = k == n ? ncells : sorted_cell[k];
-  for (int c = prev + 1; c <= cur; ++c) cell_start[c] = k;
+// cell_start[c] = first sorted position with key >= c, for c in [0, keys] (sorted_cell is
+// non-decreasing), by binary search: one thread per cell. Why not one thread per particle that
+// fills the empty cells before its own: in a rock the grains are long runs of cells without a
+// mobile particle, and one thread then fills hundreds of them while its warp waits.
+__global__ void cell_start_kernel(const int* sorted_cell, int n, int keys, int* cell_start) {
+  const int c = blockIdx.x * blockDim.x + threadIdx.x;
+  if (c > keys) return;
+  int lo = 0, hi = n;
+  while (lo < hi) {
+    const int mid = lo + (hi - lo) / 2;
+    if (sorted_cell[mid] < c)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  cell_start[c] = lo;
 }
 
 template <class T>
@@ -123,6 +132,17 @@ __global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, con
                               int n) {
   const int k = blockIdx.x * blockDim.x + threadIdx.x;
   if (k < n) out[k] = in[perm[k]];
+}
+
+// out[k] = in[perm[k]] for k < m, in[k] for m <= k < n (a sort of the first m entries only).
+template <class T>
+__global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, const int* perm, int m,
+                              int n) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k < m)
+    out[k] = in[perm[k]];
+  else if (k < n)
+    out[k] = in[k];
 }
 
 // Each thread's neighbour stash (sim/kernels.h) in shared memory, slot k at k * blockDim.x so
@@ -144,15 +164,40 @@ __global__ void for_each_stashed_kernel(StepView<Real> v, Body body) {
 // of wall particles, none of which this kernel writes (the distance test also reads the positions
 // of mobile candidates, which may be being corrected, but only to discard them as not wall); so
 // each particle's correction is the same as on the CPU, where decisions and changes are split.
+// count[0] counts the corrected particles, count[1] those that left their cell. With `near`
+// (the cell list is this step's), the stencils around each corrected particle's cell before and
+// after the move are marked there: only particles in marked cells can see a moved neighbour.
 template <class Real, bool kVelocityEstimate>
-__global__ void correction_kernel(StepView<Real> v, unsigned int* count) {
+__global__ void correction_kernel(StepView<Real> v, unsigned int* count, std::uint8_t* near) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= v.n) return;
   Real dv[3];
   if (penetration_correction(v, i, dv)) {
+    const int before = cell_of(v, i);
     apply_penetration_correction<Real, kVelocityEstimate>(v, i, dv);
     atomicAdd(count, 1u);
+    const int after = cell_of(v, i);
+    if (after != before) atomicAdd(count + 1, 1u);
+    if (near) {
+      mark_stencil(v, before, near);
+      if (after != before) mark_stencil(v, after, near);
+    }
   }
+}
+
+// The frozen particles' static sums over their frozen neighbours (StepView::frozen_rho).
+template <class Real, class DensityKernel, bool kWalls>
+__global__ void frozen_sums_kernel(StepView<Real> v, Real* rho, Real* wall) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n && i >= v.cell_start[v.frozen_part])
+    frozen_sums_of_particle<Real, DensityKernel, kWalls>(v, i, rho, wall);
+}
+
+// body(v, i) for the particles in cells marked by the corrector (the sums near corrections).
+template <class Real, class Body>
+__global__ void for_each_near_kernel(StepView<Real> v, Body body, const std::uint8_t* near) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n && near[cell_of(v, i)]) body(v, i);
 }
 
 // Rigid slabs (sim/rigid_slabs.h): the bodies live on the device; a step adds a one-thread half
@@ -501,7 +546,8 @@ class CudaEngine final : public Engine<Real>,
   using W = typename Terms::wall_model;
 
  public:
-  CudaEngine(int device, bool profile) : profile_(profile) {
+  CudaEngine(int device, bool profile, bool frozen_part)
+      : profile_(profile), frozen_part_(frozen_part) {
     check(cudaSetDevice(device), "cudaSetDevice");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
@@ -536,6 +582,7 @@ class CudaEngine final : public Engine<Real>,
 
   void upload(HostState<Real>& host) {
     host_ = &host;
+    frozen_sums_valid_ = false;
     const int n = host.size();
     n_ = n;
     upload_real_arrays(host);
@@ -553,11 +600,11 @@ class CudaEngine final : public Engine<Real>,
     if constexpr (W::enabled) {
       bvf_.upload(host.bvf);
       kappa_.upload(host.kappa);
-      count_.resize(1);
-      check(cudaMallocHost(&count_host_, sizeof(unsigned int)), "cudaMallocHost");
+      count_.resize(2);
+      check(cudaMallocHost(&count_host_, 2 * sizeof(unsigned int)), "cudaMallocHost");
     }
     ncells_ = host.grid.count();
-    cell_start_.resize(static_cast<size_t>(ncells_) + 1);
+    cell_start_.resize(static_cast<size_t>(cell_keys()) + 1);
     cell_.resize(static_cast<size_t>(n));
     cell_sorted_.resize(static_cast<size_t>(n));
     index_.resize(static_cast<size_t>(n));
@@ -680,6 +727,7 @@ class CudaEngine final : public Engine<Real>,
     const StepView<Real> v = view();
     for (const InjectionPlan<Real>& plan : host_->injections) {
       if (!plan.due(step_)) continue;
+      frozen_sums_valid_ = false;  // a pick may change a particle's type (the next sort is full)
       if (injection_best_.size() == 0) {
         injection_best_.resize(1);
         injection_counts_.resize(2 * kMaxInjections);
@@ -780,6 +828,11 @@ class CudaEngine final : public Engine<Real>,
     v.id = id_.get();
     v.origin = origin_.get();
     v.cell_start = cell_start_.get();
+    v.frozen_part = split_frozen() ? ncells_ : 0;
+    if (frozen_sums_valid_) {
+      v.frozen_rho = frozen_rho_.size() > 0 ? frozen_rho_.get() : nullptr;
+      v.frozen_bvf = frozen_bvf_.size() > 0 ? frozen_bvf_.get() : nullptr;
+    }
     v.table = table_.get();
     v.body_force = body_force_.get();
     v.dt = dt_;
@@ -808,16 +861,46 @@ class CudaEngine final : public Engine<Real>,
     for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
   }
 
-  // The wall model's corrector. The re-sort decision needs the count on the host: one small
+  // The wall model's corrector. The re-sort decision needs the counts on the host: one small
   // synchronising copy per step, paid only by scenes with the wall model.
   unsigned int correct_penetrations() {
-    check(cudaMemsetAsync(count_.get(), 0, sizeof(unsigned int)), "count reset");
-    correction_kernel<Real, T::enabled><<<blocks_for(n_), kBlock>>>(view(), count_.get());
-    check(cudaMemcpy(count_host_, count_.get(), sizeof(unsigned int), cudaMemcpyDeviceToHost),
+    // With a cell list of this step (no reorder interval), the corrector marks the cells near
+    // the particles it moves, for pair_sums_near_corrections; the marks are cleared only after
+    // a step that set some.
+    std::uint8_t* near = nullptr;
+    if (host_->reorder_every <= 1) {
+      if (near_.size() != static_cast<size_t>(ncells_)) {
+        near_.resize(static_cast<size_t>(ncells_));
+        near_dirty_ = true;
+      }
+      if (near_dirty_) check(cudaMemsetAsync(near_.get(), 0, near_.size()), "near reset");
+      near_dirty_ = false;
+      near = near_.get();
+    }
+    check(cudaMemsetAsync(count_.get(), 0, 2 * sizeof(unsigned int)), "count reset");
+    correction_kernel<Real, T::enabled><<<blocks_for(n_), kBlock>>>(view(), count_.get(), near);
+    check(cudaMemcpy(count_host_, count_.get(), 2 * sizeof(unsigned int), cudaMemcpyDeviceToHost),
           "correction count");
-    corrected_ += *count_host_;
-    if (*count_host_ > 0) ++resorted_steps_;
-    return *count_host_;
+    corrected_ += count_host_[0];
+    near_dirty_ = near && count_host_[0] > 0;
+    return count_host_[0];
+  }
+  // After a correction, the corrector's marks (a cell list of this step) let the stepper sum
+  // again near the corrections only: re-sort (only when a corrected particle left its cell),
+  // carrying rho and phi with their particles, then sum the particles in marked cells. Both are
+  // exact: a stable sort of an order that holds changes nothing, and a particle whose stencil
+  // saw no move keeps its neighbours in their order and would sum the same inputs again.
+  static constexpr bool kSumsNearCorrections = true;
+  bool corrections_marked() const { return near_dirty_; }
+  void resort_after_correction() {
+    if (count_host_[1] == 0) return;
+    ++resorted_steps_;
+    sort_storage(false, true);
+  }
+  template <class Pass>
+  void pair_sums_near_corrections(const StepView<Real>& v, Pass pass) {
+    ++near_steps_;
+    for_each_near_kernel<<<blocks_for(v.n), kBlock>>>(v, pass, near_.get());
   }
 
   // Reorder interval only: the positions at the last sort, and whether any particle has moved
@@ -854,38 +937,65 @@ class CudaEngine final : public Engine<Real>,
 
   // carry_forces: forces, densities and phi move with their particles too (a restored state; a
   // step's sort comes before its force pass, which writes them anew).
-  void sort_by_cell(bool carry_forces) {
-    const int g = blocks_for(n_);
+  void sort_by_cell(bool carry_forces) { sort_storage(carry_forces, carry_forces); }
+
+  // With a frozen part whose static sums hold, only the mobile part is sorted: the frozen
+  // particles never move, so a stable sort would leave their part as it is. carry_sums: rho and
+  // phi move with their particles.
+  void sort_storage(bool carry_forces, bool carry_sums) {
     if (host_->grid.count() != ncells_) {  // a decomposed run re-balanced: a new cell grid
       ncells_ = host_->grid.count();
-      cell_start_.resize(static_cast<size_t>(ncells_) + 1);
+      cell_start_.resize(static_cast<size_t>(cell_keys()) + 1);
+      frozen_sums_valid_ = false;
     }
-    cell_index_kernel<<<g, kBlock>>>(view(), cell_.get(), index_.get());
+    const bool mobile_only = frozen_sums_valid_;
+    ++(mobile_only ? mobile_sorts_ : full_sorts_);
+    const int m = mobile_only ? mobile_count_ : n_;
+    const int keys = mobile_only ? ncells_ : cell_keys();
+    const int g = blocks_for(m);
+    cell_index_kernel<<<g, kBlock>>>(view(), m, cell_.get(), index_.get());
     size_t temp = sort_temp_.size();
     int bits = 1;
-    while ((1 << bits) < ncells_ + 1) ++bits;
+    while ((1 << bits) < keys + 1) ++bits;
     check(cub::DeviceRadixSort::SortPairs(sort_temp_.get(), temp, cell_.get(), cell_sorted_.get(),
-                                          index_.get(), perm_.get(), n_, 0, bits),
+                                          index_.get(), perm_.get(), m, 0, bits),
           "radix sort");
-    cell_start_kernel<<<blocks_for(n_ + 1), kBlock>>>(cell_sorted_.get(), n_, ncells_,
-                                                      cell_start_.get());
-    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_}) {
-      if (a->size() == 0) continue;  // v~ without a thermostat
-      gather_kernel<<<g, kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), n_);
-      a->swap(scratch_real_);
-    }
-    gather_kernel<<<g, kBlock>>>(type_.get(), scratch_int_.get(), perm_.get(), n_);
-    type_.swap(scratch_int_);
-    gather_kernel<<<g, kBlock>>>(origin_.get(), scratch_int_.get(), perm_.get(), n_);
-    origin_.swap(scratch_int_);
-    gather_kernel<<<g, kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), n_);
-    id_.swap(scratch_id_);
+    cell_start_kernel<<<blocks_for(keys + 1), kBlock>>>(cell_sorted_.get(), m, keys,
+                                                        cell_start_.get());
+    // The permutation of [0, m), the rest copied as it is (the scratch buffer takes turns among
+    // the arrays, so its frozen part is another array's): one launch per array, as a full sort.
+    auto permute = [&](auto& a, auto& scratch) {
+      gather_kernel<<<blocks_for(n_), kBlock>>>(a.get(), scratch.get(), perm_.get(), m, n_);
+      a.swap(scratch);
+    };
+    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_})
+      if (a->size() > 0) permute(*a, scratch_real_);  // v~ is empty without a thermostat
+    permute(type_, scratch_int_);
+    permute(origin_, scratch_int_);
+    permute(id_, scratch_id_);
     if (carry_forces)
-      for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_, &rho_, &bvf_}) {
-        if (a->size() == 0) continue;  // phi without the wall model
-        gather_kernel<<<g, kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), n_);
-        a->swap(scratch_real_);
-      }
+      for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_}) permute(*a, scratch_real_);
+    if (carry_sums)
+      for (DeviceBuffer<Real>* a : {&rho_, &bvf_})
+        if (a->size() > 0) permute(*a, scratch_real_);  // phi is empty without the wall model
+    if (!mobile_only && split_frozen()) update_frozen_sums();
+  }
+
+  // After a full sort with a frozen part: where it starts, and its static sums (kept until the
+  // frozen particles may have changed: a new state, particles added or removed, an injection).
+  void update_frozen_sums() {
+    check(cudaMemcpy(&mobile_count_, cell_start_.get() + ncells_, sizeof(int),
+                     cudaMemcpyDeviceToHost),
+          "mobile count");
+    const size_t frozen = static_cast<size_t>(n_ - mobile_count_);
+    using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
+    if constexpr (C::needs_density || W::enabled) {
+      if constexpr (C::needs_density) frozen_rho_.set_size(frozen > 0 ? frozen : 1);
+      if constexpr (W::enabled) frozen_bvf_.set_size(frozen > 0 ? frozen : 1);
+      frozen_sums_kernel<Real, K, W::enabled>
+          <<<blocks_for(n_), kBlock>>>(view(), frozen_rho_.get(), frozen_bvf_.get());
+    }
+    frozen_sums_valid_ = true;
   }
 
  public:
@@ -1011,6 +1121,7 @@ class CudaEngine final : public Engine<Real>,
   void set_ghost_refresh(const std::vector<GhostRecord<Real>>& in) override {
     if (in.empty()) return;
     ghosts_in_.upload(in);
+    frozen_sums_valid_ = false;
     set_ghost_refresh_kernel<<<blocks_for(n_), kBlock>>>(view(), ghosts_in_.get());
   }
 
@@ -1042,6 +1153,7 @@ class CudaEngine final : public Engine<Real>,
   // Every per-particle buffer to n entries (contents kept), and the sort's scratch to match.
   void resize_particles(int n) {
     const size_t s = static_cast<size_t>(n);
+    frozen_sums_valid_ = false;
     for (DeviceBuffer<Real>* a :
          {&x_, &y_, &z_, &vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &rho_, &scratch_real_})
       a->set_size(s);
@@ -1084,18 +1196,26 @@ class CudaEngine final : public Engine<Real>,
   std::size_t device_bytes() const override {
     std::size_t b = 0;
     for (const DeviceBuffer<Real>* a :
-         {&x_,  &y_,  &z_,   &vx_,           &vy_,         &vz_,  &vex_,   &vey_, &vez_, &fx_,
-          &fy_, &fz_, &rho_, &scratch_real_, &body_force_, &bvf_, &kappa_, &x0_,  &y0_,  &z0_})
+         {&x_,     &y_,  &z_,  &vx_, &vy_,         &vz_,           &vex_,        &vey_,
+          &vez_,   &fx_, &fy_, &fz_, &rho_,        &scratch_real_, &body_force_, &bvf_,
+          &kappa_, &x0_, &y0_, &z0_, &frozen_rho_, &frozen_bvf_})
       b += a->size() * sizeof(Real);
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_})
       b += a->size() * sizeof(std::int32_t);
     b += (id_.size() + scratch_id_.size()) * sizeof(std::int64_t);
     for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
       b += a->size() * sizeof(int);
-    b += sort_temp_.size() + solid_.size() + table_.size() * sizeof(PairParams<Real>) +
+    b += sort_temp_.size() + solid_.size() + near_.size() +
+         table_.size() * sizeof(PairParams<Real>) +
          (virial_.size() + bins_.size()) * sizeof(double);
     return b;
   }
+
+  // Sort keys: the cells, twice with a frozen part (StepView::frozen_part).
+  int cell_keys() const { return split_frozen() ? 2 * ncells_ : ncells_; }
+  // Frozen particles in a part of their own (StepView::frozen_part): with frozen types, unless
+  // switched off (SimulationOptions::frozen_part, to measure what it saves).
+  bool split_frozen() const { return frozen_part_ && host_->frozen_mask != 0; }
 
   std::string profile_report() const override {
     if (!profile_ || profiled_steps_ == 0) return "";
@@ -1110,7 +1230,11 @@ class CudaEngine final : public Engine<Real>,
       s << " " << names[k] << " " << pass_ms_[k] / profiled_steps_ << " ("
         << static_cast<int>(100 * pass_ms_[k] / total + 0.5) << "%)";
     }
-    if (W::enabled) s << "; re-sorted after a correction on " << resorted_steps_ << " steps";
+    if (W::enabled)
+      s << "; after a correction: summed again near the corrections only on " << near_steps_
+        << " steps, re-sorted (a corrected particle left its cell) on " << resorted_steps_;
+    if (split_frozen())
+      s << "; cell sorts: " << full_sorts_ << " full, " << mobile_sorts_ << " of the mobile part";
     return s.str();
   }
 
@@ -1156,7 +1280,17 @@ class CudaEngine final : public Engine<Real>,
   static constexpr int kPasses = static_cast<int>(StepPhase::End);
   cudaEvent_t events_[kPasses + 1] = {};
   double pass_ms_[kPasses] = {};
-  std::uint64_t resorted_steps_ = 0;  // profiling: steps whose corrector moved a particle
+  std::uint64_t resorted_steps_ = 0;  // steps re-sorted after a correction (profiling)
+  std::uint64_t near_steps_ = 0;      // steps summed again near the corrections only
+  DeviceBuffer<std::uint8_t> near_;   // wall model only: cells near this step's corrections
+  bool near_dirty_ = false;
+  // Frozen types only: the frozen part's start and static sums (StepView::frozen_rho).
+  bool frozen_part_ = true;
+  int mobile_count_ = 0;
+  std::uint64_t full_sorts_ = 0, mobile_sorts_ = 0;  // profiling
+  bool frozen_sums_valid_ = false;
+  DeviceBuffer<Real> frozen_rho_,
+      frozen_bvf_;  // the corrector moved a particle; no sums since (profiling)
   std::uint64_t profiled_steps_ = 0;
   DeviceBuffer<WatchdogRecord> watchdog_record_;  // allocated at the first checked step
   WatchdogRecord* watchdog_host_ = nullptr;       // pinned
@@ -1168,16 +1302,17 @@ class CudaEngine final : public Engine<Real>,
 }  // namespace
 
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile) {
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile,
+                                               bool frozen_part) {
   std::unique_ptr<Engine<Real>> engine;
   dispatch_terms(model, [&](auto terms) {
-    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device, profile);
+    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device, profile, frozen_part);
   });
   return engine;
 }
 
-template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int, bool);
-template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int, bool);
+template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int, bool, bool);
+template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int, bool, bool);
 
 std::string cuda_unavailable_reason() {
   int count = 0;

@@ -8,7 +8,9 @@
 
 namespace mesorock::sim {
 
+// frozen_part: SimulationOptions::frozen_part.
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile);
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile,
+                                               bool frozen_part);
 
 }  // namespace mesorock::sim
