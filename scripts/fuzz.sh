@@ -32,15 +32,35 @@ for f in tests/data/scenes/*.toml tests/data/scenes/*/*.toml samples/*/scene.tom
   k=$((k + 1))
 done
 
-failed=()
-for t in "${targets[@]}"; do
+# One target per core at a time (each fuzzer is one process on one core): the same seconds per
+# target in about 1 / nproc of the time.
+run_target() {
+  local t=$1
   mkdir -p "build-fuzz/findings/$t"
-  kept=()  # the crashes found before (tests/data/fuzz/<target>), read as corpus too
+  local kept=()  # the crashes found before (tests/data/fuzz/<target>), read as corpus too
   [ -d "tests/data/fuzz/$t" ] && kept=("tests/data/fuzz/$t")
   # -timeout: one input running longer than 10 s is a hang; -rss_limit_mb bounds memory.
   if build-fuzz/bin/fuzz_"$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
        -max_len=65536 -print_final_stats=1 -artifact_prefix="build-fuzz/findings/$t/" \
        "$work/corpus/$t" "${kept[@]}" >"$work/$t.log" 2>&1; then
+    echo ok >"$work/$t.status"
+  else
+    echo failed >"$work/$t.status"
+  fi
+}
+running=0
+for t in "${targets[@]}"; do
+  run_target "$t" &
+  running=$((running + 1))
+  if [ "$running" -ge "$(nproc)" ]; then
+    wait -n || true
+    running=$((running - 1))
+  fi
+done
+wait
+failed=()
+for t in "${targets[@]}"; do
+  if [ "$(cat "$work/$t.status" 2>/dev/null)" = ok ]; then
     echo "fuzz: $t: ok ($(grep -m1 -o 'stat::number_of_executed_units: *[0-9]*' "$work/$t.log" |
       grep -o '[0-9]*$') runs in ${seconds} s)"
   else
