@@ -500,8 +500,8 @@ class CpuEngine final : public Engine<Real>,
       if (s.origin[i] >= 0) slot_index_[static_cast<size_t>(s.origin[i])] = i;
   }
 
-  // The half list is rebuilt with every sort, so a correction always re-sorts here.
-  static constexpr bool kSumsNearCorrections = false;
+  // The corrector runs after the sums (the CPU has no frozen part to find walls in before them).
+  static constexpr bool kCorrectsBeforeSort = false;
 
   // Finds every penetrating particle against the same positions, then applies the corrections.
   int correct_penetrations() {
@@ -514,7 +514,7 @@ class CpuEngine final : public Engine<Real>,
 #pragma omp for schedule(static) nowait
       for (int k = 0; k < n; ++k) {
         Correction c;
-        if (penetration_correction(v, k, c.dv)) {
+        if (penetration_correction(v, k, v.bvf[k], c.dv)) {
           c.index = k;
           mine.push_back(c);
         }

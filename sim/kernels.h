@@ -119,7 +119,7 @@ MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visi
   const int x_last[3] = {nx, rx.end > nx ? nx : rx.end, rx.end - nx};
   const Real x_shift[3] = {-v.box.length[0], Real(0), v.box.length[0]};
   // Mobile, then frozen (see StepView); without a frozen part, one part of everything.
-  const int first_part = parts == Parts::FrozenOnly ? 1 : 0;
+  const int first_part = parts == Parts::FrozenOnly && v.frozen_part > 0 ? 1 : 0;
   const int last_part = v.frozen_part == 0 || parts == Parts::MobileOnly ? 1 : 2;
   for (int kz = rz.begin; kz < rz.end; ++kz) {
     Real sz;
@@ -156,28 +156,6 @@ MESO_HD MESO_INLINE int cell_of(const StepView<Real>& v, int i) {
   const CellGrid<Real>& g = v.grid;
   return g.index(g.coordinate(v.x[i], v.box.lo[0], 0), g.coordinate(v.y[i], v.box.lo[1], 1),
                  g.coordinate(v.z[i], v.box.lo[2], 2));
-}
-
-// Sets marks[c] = 1 for every cell c of the stencil around `cell` (the cells for_each_candidate
-// scans from a particle in it). The stencil relation is symmetric, so the marked cells hold every
-// particle whose scan sees a particle of `cell`.
-template <class Real, class Mark>
-MESO_HD MESO_INLINE void mark_stencil(const StepView<Real>& v, int cell, Mark* marks) {
-  const CellGrid<Real>& g = v.grid;
-  const int cx = cell % g.dims[0], cy = (cell / g.dims[0]) % g.dims[1];
-  const int cz = cell / (g.dims[0] * g.dims[1]);
-  const auto rx = g.axis_range(cx, 0, v.box.periodic[0]);
-  const auto ry = g.axis_range(cy, 1, v.box.periodic[1]);
-  const auto rz = g.axis_range(cz, 2, v.box.periodic[2]);
-  Real shift;
-  for (int kz = rz.begin; kz < rz.end; ++kz) {
-    const int wz = g.wrap(kz, 2, v.box.length[2], shift);
-    for (int ky = ry.begin; ky < ry.end; ++ky) {
-      const int wy = g.wrap(ky, 1, v.box.length[1], shift);
-      for (int kx = rx.begin; kx < rx.end; ++kx)
-        marks[g.index(g.wrap(kx, 0, v.box.length[0], shift), wy, wz)] = Mark(1);
-    }
-  }
 }
 
 // Squared displacement of particle i since the positions x0 of the last sort (minimum image: a
@@ -351,6 +329,20 @@ MESO_HD MESO_INLINE void frozen_sums_of_particle(const StepView<Real>& v, int i,
   if constexpr (!std::is_void<DensityKernel>::value) rho_out[k] = rho;
 }
 
+// The wall model's phi of particle i over its neighbours in `parts` (the same sum, in the same
+// order, as density_and_bvf_of_particle: the wall particles are all frozen).
+template <class Real>
+MESO_HD MESO_INLINE Real wall_fraction(const StepView<Real>& v, int i, Parts parts) {
+  Real wall = 0;
+  for_each_neighbour(
+      v, i,
+      [&](int j, Real, Real, Real, Real r2) {
+        if (v.walls.is_wall(v.type[j])) wall += bvf_weight(real_sqrt(r2));
+      },
+      parts);
+  return wall * v.walls.inv_wall_density;
+}
+
 // The corrector of the wall model for particle i after the drift (the predictor): a mobile
 // non-wall particle with phi_i > phi_c is inside the wall. With n the wall-side normal (along
 // -grad phi: sum_{j in wall} r (1 - r)^2 e_ij) its velocity v becomes
@@ -358,21 +350,27 @@ MESO_HD MESO_INLINE void frozen_sums_of_particle(const StepView<Real>& v, int i,
 //   Specular: v' = v - 2 min(0, v . n) n
 // and its drift is redone from x(t): x += dt (v' - v). Writes dv = v' - v and returns true when
 // the particle must be corrected; changes nothing itself, so that every particle's decision
-// sees the same positions (the caller applies the changes).
+// sees the same positions (the caller applies the changes). phi is particle i's phi at its
+// predicted position; `parts`, where its wall neighbours are (the frozen part alone, on the GPU
+// before the mobile part is sorted again).
 template <class Real>
-MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real dv[3]) {
+MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real phi,
+                                                Real dv[3], Parts parts = Parts::All) {
   if (v.frozen(i) || v.ghost(i) || v.walls.is_wall(v.type[i]) || v.slabs.is_slab(v.type[i]) ||
-      !(v.bvf[i] > v.walls.phi_c))
+      !(phi > v.walls.phi_c))
     return false;
   Real nx = 0, ny = 0, nz = 0;
-  for_each_neighbour(v, i, [&](int j, Real dx, Real dy, Real dz, Real r2) {
-    if (!v.walls.is_wall(v.type[j]) || r2 < coincident_r2<Real>()) return;
-    const Real r = real_sqrt(r2);
-    const Real w = bvf_normal_weight(r) / r;  // times the unit vector d / r
-    nx += w * dx;
-    ny += w * dy;
-    nz += w * dz;
-  });
+  for_each_neighbour(
+      v, i,
+      [&](int j, Real dx, Real dy, Real dz, Real r2) {
+        if (!v.walls.is_wall(v.type[j]) || r2 < coincident_r2<Real>()) return;
+        const Real r = real_sqrt(r2);
+        const Real w = bvf_normal_weight(r) / r;  // times the unit vector d / r
+        nx += w * dx;
+        ny += w * dy;
+        nz += w * dz;
+      },
+      parts);
   const Real norm2 = nx * nx + ny * ny + nz * nz;
   if (!(norm2 > Real(0))) return false;
   const Real inv = Real(1) / real_sqrt(norm2);

@@ -33,10 +33,9 @@ inline constexpr double kHostBytesPerCell = 8;
 //   type, origin, int scratch (int32) 12 B, id and its scratch (int64) 16 B, cell, cell_sorted,
 //   index, perm (int) 16 B, CUB's radix-sort temporary (~ one key-value pair) 8 B
 // = 52 + 20 Real: 212 B in double precision, 132 B in single. Per cell: cell_start, 4 B, twice
-// with frozen types (their own part of the cell list), and the wall model's marks near
-// corrections, 1 B; the solid grid: 1 B per voxel.
+// with frozen types (their own part of the cell list); the solid grid: 1 B per voxel.
 double device_bytes_per_particle(Precision p);
-inline constexpr double kDeviceBytesPerCell = 9;
+inline constexpr double kDeviceBytesPerCell = 8;
 
 // Memory available now, or nullopt where it cannot be read; `source` names the limit that set it
 // ("MemAvailable", "cgroup memory.max", "RLIMIT_AS (ulimit -v)", "cudaMemGetInfo, device 0").

@@ -14,10 +14,9 @@
 //                                          its half list)
 //   sort_positions_stale(), remember_sort_positions(), any_moved_beyond(limit2)
 //   correct_penetrations()                 the wall model's corrector; returns the count
-//   kSumsNearCorrections, corrections_marked(), resort_after_correction(),
-//   pair_sums_near_corrections(view, pass) optional (the GPU): after a correction, a re-sort
-//                                          only if a corrected particle left its cell, and the
-//                                          sums again near the corrected particles only
+//   kCorrectsBeforeSort, frozen_part_ready(), correct_against_frozen_part()
+//                                          optional (the GPU): the corrector before the sort,
+//                                          finding the walls in the frozen part alone
 //   slab_half_kicks(), slab_forces(kick)   the rigid slabs' reductions and kicks
 //   inject(), watchdog_step()              per-step events, after the second kick
 //   next_step(), finish_steps(steps), mark(phase), poll_setup()
@@ -52,10 +51,10 @@ class SerialHooks final : public StepHooks<Real> {
 // Where the profiler's marks stand in a step (the CUDA engine times the passes between them).
 enum class StepPhase : int {
   KickDrift = 0,
-  Sort = 1,
-  Sums = 2,
-  Corrector = 3,  // the wall model's corrector (nothing without it)
-  Resort = 4,     // its re-sort and second sums, on the steps where it moved a particle
+  Corrector = 1,  // the wall model's corrector against the frozen part, before the sort
+  Sort = 2,
+  Sums = 3,
+  Resort = 4,  // otherwise the corrector after the sums, and its re-sort and second sums
   Forces = 5,
   Kick = 6,
   End = 7
@@ -172,6 +171,8 @@ class Stepper {
   void compute_forces() {
     Backend& b = backend();
     hooks_->exchange(b);
+    b.mark(StepPhase::Corrector);
+    const bool corrected_before_sort = correct_before_sort();
     b.mark(StepPhase::Sort);
     if (sort_due()) sort();
     b.mark(StepPhase::Sums);
@@ -179,19 +180,16 @@ class Stepper {
     local_sums();
     b.poll_setup();
     hooks_->sync_sums(b);
-    b.mark(StepPhase::Corrector);
-    bool corrected = false;
-    if constexpr (W::enabled) corrected = hooks_->any(b.correct_penetrations() > 0);
     b.mark(StepPhase::Resort);
+    bool corrected = false;
+    if constexpr (W::enabled)
+      if (!corrected_before_sort) corrected = hooks_->any(b.correct_penetrations() > 0);
     if (corrected) {
       // Corrected particles moved: sort and sum again so the cell list and rho stay exact (and,
-      // decomposed, their ghosts follow them first). A backend that marked the cells near the
-      // corrections sums again only there, with the same result.
+      // decomposed, their ghosts follow them first).
       hooks_->refresh_ghosts(b);
-      if (!sums_near_corrections()) {
-        sort();
-        local_sums();
-      }
+      sort();
+      local_sums();
       hooks_->sync_sums(b);
     }
     b.mark(StepPhase::Forces);
@@ -222,14 +220,16 @@ class Stepper {
     return b.any_moved_beyond(half * half);
   }
 
-  // The sums again near this step's corrections only, where the backend offers it (the GPU) and
-  // the run is on one rank; false: nothing done, sort and sum in full.
-  bool sums_near_corrections() {
-    Backend& b = backend();
-    if constexpr (Backend::kSumsNearCorrections && W::enabled) {
-      if (hooks_->distributed() || !b.corrections_marked()) return false;
-      b.resort_after_correction();
-      b.pair_sums_near_corrections(b.view(), Sums{});
+  // The wall corrector before the sort, where the backend can find the walls without a cell list
+  // of this step (the GPU's frozen part, sorted once) and the run is on one rank. phi and the
+  // wall normal at the predicted positions sum the same wall particles in the same order as
+  // after the sort, so the decisions and moves are the same; the corrected positions are then
+  // sorted and summed once. false: nothing done (the corrector runs after the sums).
+  bool correct_before_sort() {
+    if constexpr (Backend::kCorrectsBeforeSort && W::enabled) {
+      Backend& b = backend();
+      if (hooks_->distributed() || !b.frozen_part_ready()) return false;
+      b.correct_against_frozen_part();
       return true;
     } else {
       return false;

@@ -164,24 +164,28 @@ __global__ void for_each_stashed_kernel(StepView<Real> v, Body body) {
 // of wall particles, none of which this kernel writes (the distance test also reads the positions
 // of mobile candidates, which may be being corrected, but only to discard them as not wall); so
 // each particle's correction is the same as on the CPU, where decisions and changes are split.
-// count[0] counts the corrected particles, count[1] those that left their cell. With `near`
-// (the cell list is this step's), the stencils around each corrected particle's cell before and
-// after the move are marked there: only particles in marked cells can see a moved neighbour.
 template <class Real, bool kVelocityEstimate>
-__global__ void correction_kernel(StepView<Real> v, unsigned int* count, std::uint8_t* near) {
+__global__ void correction_kernel(StepView<Real> v, unsigned int* count) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= v.n) return;
   Real dv[3];
-  if (penetration_correction(v, i, dv)) {
-    const int before = cell_of(v, i);
+  if (penetration_correction(v, i, v.bvf[i], dv)) {
     apply_penetration_correction<Real, kVelocityEstimate>(v, i, dv);
     atomicAdd(count, 1u);
-    const int after = cell_of(v, i);
-    if (after != before) atomicAdd(count + 1, 1u);
-    if (near) {
-      mark_stencil(v, before, near);
-      if (after != before) mark_stencil(v, after, near);
-    }
+  }
+}
+
+// The corrector before the sort (sim/stepper.h correct_before_sort): phi and the wall normal at
+// the predicted position from the frozen part alone, whose cell list holds while the mobile
+// part's is a step old. Only wall particles are read, and none is written.
+template <class Real, bool kVelocityEstimate>
+__global__ void correction_before_sort_kernel(StepView<Real> v, unsigned long long* count) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= v.n || v.frozen(i)) return;
+  Real dv[3];
+  if (penetration_correction(v, i, wall_fraction(v, i, Parts::FrozenOnly), dv, Parts::FrozenOnly)) {
+    apply_penetration_correction<Real, kVelocityEstimate>(v, i, dv);
+    atomicAdd(count, 1ull);
   }
 }
 
@@ -191,13 +195,6 @@ __global__ void frozen_sums_kernel(StepView<Real> v, Real* rho, Real* wall) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < v.n && i >= v.cell_start[v.frozen_part])
     frozen_sums_of_particle<Real, DensityKernel, kWalls>(v, i, rho, wall);
-}
-
-// body(v, i) for the particles in cells marked by the corrector (the sums near corrections).
-template <class Real, class Body>
-__global__ void for_each_near_kernel(StepView<Real> v, Body body, const std::uint8_t* near) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n && near[cell_of(v, i)]) body(v, i);
 }
 
 // Rigid slabs (sim/rigid_slabs.h): the bodies live on the device; a step adds a one-thread half
@@ -583,6 +580,9 @@ class CudaEngine final : public Engine<Real>,
   void upload(HostState<Real>& host) {
     host_ = &host;
     frozen_sums_valid_ = false;
+    corrected_ = wall_corrections();  // the count before the sort, kept
+    if (early_count_.size() > 0)
+      check(cudaMemset(early_count_.get(), 0, sizeof(unsigned long long)), "count reset");
     const int n = host.size();
     n_ = n;
     upload_real_arrays(host);
@@ -600,8 +600,8 @@ class CudaEngine final : public Engine<Real>,
     if constexpr (W::enabled) {
       bvf_.upload(host.bvf);
       kappa_.upload(host.kappa);
-      count_.resize(2);
-      check(cudaMallocHost(&count_host_, 2 * sizeof(unsigned int)), "cudaMallocHost");
+      count_.resize(1);
+      check(cudaMallocHost(&count_host_, sizeof(unsigned int)), "cudaMallocHost");
     }
     ncells_ = host.grid.count();
     cell_start_.resize(static_cast<size_t>(cell_keys()) + 1);
@@ -861,46 +861,29 @@ class CudaEngine final : public Engine<Real>,
     for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
   }
 
-  // The wall model's corrector. The re-sort decision needs the counts on the host: one small
-  // synchronising copy per step, paid only by scenes with the wall model.
+  // The wall model's corrector after the sums. The re-sort decision needs the count on the host:
+  // one small synchronising copy per step, paid only by scenes with the wall model.
   unsigned int correct_penetrations() {
-    // With a cell list of this step (no reorder interval), the corrector marks the cells near
-    // the particles it moves, for pair_sums_near_corrections; the marks are cleared only after
-    // a step that set some.
-    std::uint8_t* near = nullptr;
-    if (host_->reorder_every <= 1) {
-      if (near_.size() != static_cast<size_t>(ncells_)) {
-        near_.resize(static_cast<size_t>(ncells_));
-        near_dirty_ = true;
-      }
-      if (near_dirty_) check(cudaMemsetAsync(near_.get(), 0, near_.size()), "near reset");
-      near_dirty_ = false;
-      near = near_.get();
-    }
-    check(cudaMemsetAsync(count_.get(), 0, 2 * sizeof(unsigned int)), "count reset");
-    correction_kernel<Real, T::enabled><<<blocks_for(n_), kBlock>>>(view(), count_.get(), near);
-    check(cudaMemcpy(count_host_, count_.get(), 2 * sizeof(unsigned int), cudaMemcpyDeviceToHost),
+    check(cudaMemsetAsync(count_.get(), 0, sizeof(unsigned int)), "count reset");
+    correction_kernel<Real, T::enabled><<<blocks_for(n_), kBlock>>>(view(), count_.get());
+    check(cudaMemcpy(count_host_, count_.get(), sizeof(unsigned int), cudaMemcpyDeviceToHost),
           "correction count");
-    corrected_ += count_host_[0];
-    near_dirty_ = near && count_host_[0] > 0;
-    return count_host_[0];
+    corrected_ += *count_host_;
+    ++late_steps_;
+    return *count_host_;
   }
-  // After a correction, the corrector's marks (a cell list of this step) let the stepper sum
-  // again near the corrections only: re-sort (only when a corrected particle left its cell),
-  // carrying rho and phi with their particles, then sum the particles in marked cells. Both are
-  // exact: a stable sort of an order that holds changes nothing, and a particle whose stencil
-  // saw no move keeps its neighbours in their order and would sum the same inputs again.
-  static constexpr bool kSumsNearCorrections = true;
-  bool corrections_marked() const { return near_dirty_; }
-  void resort_after_correction() {
-    if (count_host_[1] == 0) return;
-    ++resorted_steps_;
-    sort_storage(false, true);
-  }
-  template <class Pass>
-  void pair_sums_near_corrections(const StepView<Real>& v, Pass pass) {
-    ++near_steps_;
-    for_each_near_kernel<<<blocks_for(v.n), kBlock>>>(v, pass, near_.get());
+  // The corrector before the sort, once the frozen part is sorted and its sums hold: no count
+  // comes back (nothing waits for it; wall_corrections() reads the total).
+  static constexpr bool kCorrectsBeforeSort = true;
+  bool frozen_part_ready() const { return frozen_sums_valid_; }
+  void correct_against_frozen_part() {
+    if (early_count_.size() == 0) {
+      early_count_.resize(1);
+      check(cudaMemset(early_count_.get(), 0, sizeof(unsigned long long)), "count reset");
+    }
+    ++early_steps_;
+    correction_before_sort_kernel<Real, T::enabled>
+        <<<blocks_for(n_), kBlock>>>(view(), early_count_.get());
   }
 
   // Reorder interval only: the positions at the last sort, and whether any particle has moved
@@ -937,12 +920,9 @@ class CudaEngine final : public Engine<Real>,
 
   // carry_forces: forces, densities and phi move with their particles too (a restored state; a
   // step's sort comes before its force pass, which writes them anew).
-  void sort_by_cell(bool carry_forces) { sort_storage(carry_forces, carry_forces); }
-
   // With a frozen part whose static sums hold, only the mobile part is sorted: the frozen
-  // particles never move, so a stable sort would leave their part as it is. carry_sums: rho and
-  // phi move with their particles.
-  void sort_storage(bool carry_forces, bool carry_sums) {
+  // particles never move, so a stable sort would leave their part as it is.
+  void sort_by_cell(bool carry_forces) {
     if (host_->grid.count() != ncells_) {  // a decomposed run re-balanced: a new cell grid
       ncells_ = host_->grid.count();
       cell_start_.resize(static_cast<size_t>(cell_keys()) + 1);
@@ -974,9 +954,7 @@ class CudaEngine final : public Engine<Real>,
     permute(origin_, scratch_int_);
     permute(id_, scratch_id_);
     if (carry_forces)
-      for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_}) permute(*a, scratch_real_);
-    if (carry_sums)
-      for (DeviceBuffer<Real>* a : {&rho_, &bvf_})
+      for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_, &rho_, &bvf_})
         if (a->size() > 0) permute(*a, scratch_real_);  // phi is empty without the wall model
     if (!mobile_only && split_frozen()) update_frozen_sums();
   }
@@ -1172,11 +1150,15 @@ class CudaEngine final : public Engine<Real>,
   }
 
  public:
-  std::uint64_t wall_corrections() const override { return corrected_; }
+  std::uint64_t wall_corrections() const override {
+    std::vector<unsigned long long> early;
+    if (early_count_.size() > 0) early_count_.download(early);
+    return corrected_ + (early.empty() ? 0 : early[0]);
+  }
 
  private:
-  // Profiling: events 0..7 (StepPhase) bound kick_drift | sort | density | corrector | resort |
-  // force | kick; the step's times are added up at its end.
+  // Profiling: events 0..7 (StepPhase) bound kick_drift | corrector | sort | density |
+  // late_corrector | force | kick; the step's times are added up at its end.
   void mark(StepPhase phase) {
     if (!profile_) return;
     check(cudaEventRecord(events_[static_cast<int>(phase)]), "cudaEventRecord");
@@ -1205,8 +1187,7 @@ class CudaEngine final : public Engine<Real>,
     b += (id_.size() + scratch_id_.size()) * sizeof(std::int64_t);
     for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
       b += a->size() * sizeof(int);
-    b += sort_temp_.size() + solid_.size() + near_.size() +
-         table_.size() * sizeof(PairParams<Real>) +
+    b += sort_temp_.size() + solid_.size() + table_.size() * sizeof(PairParams<Real>) +
          (virial_.size() + bins_.size()) * sizeof(double);
     return b;
   }
@@ -1219,20 +1200,20 @@ class CudaEngine final : public Engine<Real>,
 
   std::string profile_report() const override {
     if (!profile_ || profiled_steps_ == 0) return "";
-    static const char* names[kPasses] = {"kick_drift", "cell_sort", "density", "corrector",
-                                         "resort",     "force",     "kick"};
+    static const char* names[kPasses] = {"kick_drift",     "corrector", "cell_sort", "density",
+                                         "late_corrector", "force",     "kick"};
     std::ostringstream s;
     double total = 0;
     for (double v : pass_ms_) total += v;
     s << "per-step GPU time over " << profiled_steps_ << " steps (ms):";
     for (int k = 0; k < kPasses; ++k) {
-      if (!W::enabled && (k == 3 || k == 4)) continue;  // no corrector: always 0
+      if (!W::enabled && (k == 1 || k == 4)) continue;  // no corrector: always 0
       s << " " << names[k] << " " << pass_ms_[k] / profiled_steps_ << " ("
         << static_cast<int>(100 * pass_ms_[k] / total + 0.5) << "%)";
     }
     if (W::enabled)
-      s << "; after a correction: summed again near the corrections only on " << near_steps_
-        << " steps, re-sorted (a corrected particle left its cell) on " << resorted_steps_;
+      s << "; the corrector ran before the sort on " << early_steps_ << " steps, after the sums on "
+        << late_steps_;
     if (split_frozen())
       s << "; cell sorts: " << full_sorts_ << " full, " << mobile_sorts_ << " of the mobile part";
     return s.str();
@@ -1280,10 +1261,10 @@ class CudaEngine final : public Engine<Real>,
   static constexpr int kPasses = static_cast<int>(StepPhase::End);
   cudaEvent_t events_[kPasses + 1] = {};
   double pass_ms_[kPasses] = {};
-  std::uint64_t resorted_steps_ = 0;  // steps re-sorted after a correction (profiling)
-  std::uint64_t near_steps_ = 0;      // steps summed again near the corrections only
-  DeviceBuffer<std::uint8_t> near_;   // wall model only: cells near this step's corrections
-  bool near_dirty_ = false;
+  // Wall model only: the corrections before the sort (counted on the device), and the steps
+  // whose corrector ran before the sort and after the sums (profiling).
+  DeviceBuffer<unsigned long long> early_count_;
+  std::uint64_t early_steps_ = 0, late_steps_ = 0;
   // Frozen types only: the frozen part's start and static sums (StepView::frozen_rho).
   bool frozen_part_ = true;
   int mobile_count_ = 0;
