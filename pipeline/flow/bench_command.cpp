@@ -26,7 +26,8 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
       ->capture_default_str();
   bench->add_option("--solid", a->bo.solid_file,
                     "rock: a segmented image (rockprep's solid.h5), extended by mirror copies "
-                    "to --particles");
+                    "to --particles (for timing runs of up to about 300 steps: the scene can run "
+                    "away over longer runs, docs/benchmarks.md)");
   bench->add_option("--particles", a->bo.particles, "particle count")->capture_default_str();
   bench->add_option("--steps", a->bo.steps, "timed steps")->capture_default_str();
   add_solver_flags(*bench, a->flags);

@@ -35,7 +35,9 @@ BuiltSystem make_porous_benchmark(int nx, int nz, std::uint64_t seed);
 // interiors empty and kept out of by the solid grid; the wall model of Li et al. 2018 on; B = 25,
 // rd = 0.75, gamma = 4.5, A = -40 within each type and -18 between fluid and wall (rockprep's
 // defaults), g_x = 0.02 on the fluid; Maxwell velocities at kBT = 1. Relax it at dt = 0.002 first
-// (rockprep's scenes do): the random fluid next to the wall runs away at dt = 0.01.
+// (rockprep's scenes do): the random fluid next to the wall runs away at dt = 0.01. Even so the
+// scene ran away after 115-1,227 steps in 8 of 12 runs of 1,500-3,000 steps (docs/benchmarks.md;
+// cause not found): a scene for short timing runs.
 BuiltSystem make_rock_benchmark(const sim::SolidMask& image, std::int64_t particles,
                                 std::uint64_t seed);
 
