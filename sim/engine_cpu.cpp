@@ -30,10 +30,9 @@ class CellSorter {
     s.cell_start.assign(static_cast<size_t>(ncells) + 1, 0);
     cell_of_.resize(static_cast<size_t>(n));
     dest_.resize(static_cast<size_t>(n));
+    const StepView<Real> v = s.view();
     for (int i = 0; i < n; ++i) {
-      const int c = s.grid.index(s.grid.coordinate(s.x[i], s.box.lo[0], 0),
-                                 s.grid.coordinate(s.y[i], s.box.lo[1], 1),
-                                 s.grid.coordinate(s.z[i], s.box.lo[2], 2));
+      const int c = cell_of(v, i);
       cell_of_[static_cast<size_t>(i)] = c;
       ++s.cell_start[static_cast<size_t>(c) + 1];
     }

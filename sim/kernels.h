@@ -90,6 +90,8 @@ struct StepView {
   std::uint64_t step = 0;  // the step whose forces are being computed (keys the pair RNG)
 
   MESO_HD bool frozen(int i) const { return (frozen_mask >> type[i]) & 1u; }
+  // With a frozen part: stored particle i's place among the frozen ones (frozen_rho's index).
+  MESO_HD int frozen_index(int i) const { return i - cell_start[frozen_part]; }
   MESO_HD bool ghost(int i) const { return has_ghosts && origin[i] < 0; }
 };
 
@@ -264,7 +266,7 @@ MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
   Real rho = 0;
   Parts parts = Parts::All;
   if (v.frozen_rho && v.frozen(i)) {
-    rho = v.frozen_rho[i - v.cell_start[v.frozen_part]];
+    rho = v.frozen_rho[v.frozen_index(i)];
     parts = Parts::MobileOnly;
   }
   add_density<Real, DensityKernel>(v, i, parts, rho);
@@ -303,7 +305,7 @@ MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, in
   Real rho = 0, wall = 0;
   Parts parts = Parts::All;
   if (v.frozen_bvf && v.frozen(i)) {
-    const int k = i - v.cell_start[v.frozen_part];
+    const int k = v.frozen_index(i);
     if constexpr (kDensity) rho = v.frozen_rho[k];
     wall = v.frozen_bvf[k];
     parts = Parts::MobileOnly;
@@ -318,28 +320,20 @@ MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, in
 template <class Real, class DensityKernel, bool kWalls>
 MESO_HD MESO_INLINE void frozen_sums_of_particle(const StepView<Real>& v, int i, Real* rho_out,
                                                  Real* wall_out) {
-  const int k = i - v.cell_start[v.frozen_part];
+  const int k = v.frozen_index(i);
   Real rho = 0, wall = 0;
-  if constexpr (kWalls) {
-    add_density_and_wall<Real, DensityKernel>(v, i, Parts::FrozenOnly, rho, wall);
-    wall_out[k] = wall;
-  } else {
-    add_density<Real, DensityKernel>(v, i, Parts::FrozenOnly, rho);
-  }
+  add_density_and_wall<Real, DensityKernel>(v, i, Parts::FrozenOnly, rho, wall);
+  if constexpr (kWalls) wall_out[k] = wall;
   if constexpr (!std::is_void<DensityKernel>::value) rho_out[k] = rho;
 }
 
-// The wall model's phi of particle i over its neighbours in `parts` (the same sum, in the same
-// order, as density_and_bvf_of_particle: the wall particles are all frozen).
+// The wall model's phi of a particle that is not wall, over its neighbours in `parts`: the sum
+// of density_and_bvf_of_particle without the density (the wall particles are all frozen, so the
+// frozen part alone gives the same sum in the same order).
 template <class Real>
 MESO_HD MESO_INLINE Real wall_fraction(const StepView<Real>& v, int i, Parts parts) {
-  Real wall = 0;
-  for_each_neighbour(
-      v, i,
-      [&](int j, Real, Real, Real, Real r2) {
-        if (v.walls.is_wall(v.type[j])) wall += bvf_weight(real_sqrt(r2));
-      },
-      parts);
+  Real rho = 0, wall = 0;
+  add_density_and_wall<Real, void>(v, i, parts, rho, wall);
   return wall * v.walls.inv_wall_density;
 }
 

@@ -135,9 +135,9 @@ BenchResult run_bench(const BenchOptions& o) {
   timed.profile = false;  // the timed run never synchronises per step
   auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, timed);
   const std::uint64_t warm = std::max<std::uint64_t>(5, o.steps / 10);
-  if (o.case_name == "rock") {  // the relax stage of rockprep's scenes (systems.h)
-    sim->set_dt(0.002);
-    sim->run(100);
+  if (s.relax_steps > 0) {
+    sim->set_dt(s.relax_dt);
+    sim->run(s.relax_steps);
     sim->set_dt(0.01);
   }
   sim->run(warm);

@@ -202,6 +202,7 @@ BuiltSystem make_rock_benchmark(const sim::SolidMask& image, std::int64_t partic
     ++placed;
   }
   sim::assign_maxwell_velocities(s.particles, s.model, 1.0, seed);
+  s.relax_steps = 100;
   return s;
 }
 

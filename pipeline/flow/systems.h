@@ -10,6 +10,10 @@ struct BuiltSystem {
   sim::Model model;
   sim::BoxSpec box;
   sim::ParticleSet particles;
+  // Steps to run at relax_dt before the system is used at its own time step (0: none), as
+  // rockprep's scenes relax their packing first.
+  std::uint64_t relax_steps = 0;
+  double relax_dt = 0.002;
 };
 
 // One mobile type in a periodic cube of edge L at number density rho, random positions,
@@ -34,10 +38,10 @@ BuiltSystem make_porous_benchmark(int nx, int nz, std::uint64_t seed);
 // within 1 rc of the pore (whole voxels along each axis, as rockprep's wall sweep), the grain
 // interiors empty and kept out of by the solid grid; the wall model of Li et al. 2018 on; B = 25,
 // rd = 0.75, gamma = 4.5, A = -40 within each type and -18 between fluid and wall (rockprep's
-// defaults), g_x = 0.02 on the fluid; Maxwell velocities at kBT = 1. Relax it at dt = 0.002 first
-// (rockprep's scenes do): the random fluid next to the wall runs away at dt = 0.01. Even so the
-// scene ran away after 115-1,227 steps in 8 of 12 runs of 1,500-3,000 steps (docs/benchmarks.md;
-// cause not found): a scene for short timing runs.
+// defaults), g_x = 0.02 on the fluid; Maxwell velocities at kBT = 1. relax_steps = 100 at dt =
+// 0.002 (rockprep's scenes relax so): the random fluid next to the wall runs away at dt = 0.01.
+// Even so the scene ran away after 115-1,227 steps in 8 of 12 runs of 1,500-3,000 steps
+// (docs/benchmarks.md; cause not found): a scene for short timing runs.
 BuiltSystem make_rock_benchmark(const sim::SolidMask& image, std::int64_t particles,
                                 std::uint64_t seed);
 

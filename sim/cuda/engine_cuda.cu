@@ -193,7 +193,7 @@ __global__ void correction_before_sort_kernel(StepView<Real> v, unsigned long lo
 template <class Real, class DensityKernel, bool kWalls>
 __global__ void frozen_sums_kernel(StepView<Real> v, Real* rho, Real* wall) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n && i >= v.cell_start[v.frozen_part])
+  if (i < v.n && v.frozen_index(i) >= 0)
     frozen_sums_of_particle<Real, DensityKernel, kWalls>(v, i, rho, wall);
 }
 

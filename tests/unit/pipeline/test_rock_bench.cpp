@@ -2,6 +2,7 @@
 // segmented image, extended by mirror copies, packed as rockprep's permeability layout packs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -28,6 +29,11 @@ ms::SolidMask sphere_image() {
 }
 
 // Within 1 rc of a pore voxel: some pore voxel within 2 voxels (1 rc) along each axis.
+// The voxel index along axis a of coordinate x (the box starts at 0).
+std::int64_t voxel(const ms::SolidMask& g, int a, double x) {
+  return std::min<std::int64_t>(g.dims[a] - 1, static_cast<std::int64_t>(x / g.voxel[a]));
+}
+
 bool near_pore(const ms::SolidMask& g, std::int64_t i, std::int64_t j, std::int64_t k) {
   for (int c = -2; c <= 2; ++c)
     for (int b = -2; b <= 2; ++b)
@@ -56,11 +62,8 @@ TEST(RockBench, FluidInThePoreOneWallParticlePerWallVoxelAndTheCountAsAsked) {
   EXPECT_TRUE(s.model.wall_model.enabled);
   std::int64_t fluid = 0, wall = 0;
   for (std::int64_t p = 0; p < n; ++p) {
-    const auto v = [&](int a, double x) {
-      return std::min<std::int64_t>(g.dims[a] - 1, static_cast<std::int64_t>(x / g.voxel[a]));
-    };
-    const std::int64_t i = v(0, s.particles.x[p]), j = v(1, s.particles.y[p]),
-                       k = v(2, s.particles.z[p]);
+    const std::int64_t i = voxel(g, 0, s.particles.x[p]), j = voxel(g, 1, s.particles.y[p]),
+                       k = voxel(g, 2, s.particles.z[p]);
     if (s.particles.type[p] == 0) {
       ++fluid;
       ASSERT_FALSE(g.is_solid(i, j, k)) << "fluid particle " << p << " in a solid voxel";
@@ -93,8 +96,9 @@ TEST(RockBench, FluidInThePoreOneWallParticlePerWallVoxelAndTheCountAsAsked) {
 // ends in the solid.
 TEST(RockBench, ShortRunStaysFiniteAndOutOfTheSolid) {
   const mp::BuiltSystem s = mp::make_rock_benchmark(sphere_image(), 20000, 3);
-  auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.002);
-  sim->run(100);
+  ASSERT_EQ(s.relax_steps, 100u);
+  auto sim = ms::make_simulation(s.model, s.box, s.particles, s.relax_dt);
+  sim->run(s.relax_steps);
   sim->set_dt(0.01);
   sim->run(50);
   EXPECT_TRUE(std::isfinite(sim->kinetic_temperature()));
@@ -102,10 +106,7 @@ TEST(RockBench, ShortRunStaysFiniteAndOutOfTheSolid) {
   const ms::SolidMask& g = *s.model.solid.mask;
   for (std::size_t q = 0; q < p.size(); ++q) {
     if (p.type[q] != 0) continue;
-    const auto v = [&](int a, double x) {
-      return std::min<std::int64_t>(g.dims[a] - 1, static_cast<std::int64_t>(x / g.voxel[a]));
-    };
-    ASSERT_FALSE(g.is_solid(v(0, p.x[q]), v(1, p.y[q]), v(2, p.z[q]))) << q;
+    ASSERT_FALSE(g.is_solid(voxel(g, 0, p.x[q]), voxel(g, 1, p.y[q]), voxel(g, 2, p.z[q]))) << q;
   }
 }
 
