@@ -96,7 +96,7 @@ double host_bytes_per_particle(Precision p) {
 
 double device_bytes_per_particle(Precision p) {
   const double real = p == Precision::Single ? 4 : 8;
-  return 52 + 20 * real;
+  return 56 + 28 * real;
 }
 
 MemoryAvailable host_memory_available() {

@@ -28,11 +28,12 @@ double host_bytes_per_particle(Precision p);
 inline constexpr double kHostBytesPerCell = 8;
 
 // Device bytes per particle of the CUDA engine (its buffers, see CudaEngine::device_bytes()):
-//   20 Real (x..rho 13, the sort scratch, phi, the positions at the last sort x0 y0 z0, a
-//   frozen particle's static rho and phi),
-//   type, origin, int scratch (int32) 12 B, id and its scratch (int64) 16 B, cell, cell_sorted,
-//   index, perm (int) 16 B, CUB's radix-sort temporary (~ one key-value pair) 8 B
-// = 52 + 20 Real: 212 B in double precision, 132 B in single. Per cell: cell_start, 4 B, twice
+//   28 Real (x..rho 13, the second buffers of the 9 that a sort moves, phi, the positions at
+//   the last sort x0 y0 z0, a frozen particle's static rho and phi),
+//   type, origin and their second buffers (int32) 16 B, id and its second buffer (int64) 16 B,
+//   cell, cell_sorted, index, perm (int) 16 B, CUB's radix-sort temporary (~ one key-value
+//   pair) 8 B
+// = 56 + 28 Real: 280 B in double precision, 168 B in single. Per cell: cell_start, 4 B, twice
 // with frozen types (their own part of the cell list); the solid grid: 1 B per voxel.
 double device_bytes_per_particle(Precision p);
 inline constexpr double kDeviceBytesPerCell = 8;

@@ -200,7 +200,12 @@ template <class Real>
 std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& opt) {
   if (opt.backend == BackendKind::CPU) return make_cpu_engine<Real>(model, opt.threads);
 #if defined(MESOROCK_HAVE_CUDA)
-  return make_cuda_engine<Real>(model, opt.device, opt.profile, opt.frozen_part);
+  CudaEngineOptions cuda;
+  cuda.device = opt.device;
+  cuda.profile = opt.profile;
+  cuda.frozen_part = opt.frozen_part;
+  cuda.graphs = opt.graphs;
+  return make_cuda_engine<Real>(model, cuda);
 #else
   throw DeviceError(cuda_unavailable_reason());
 #endif
@@ -387,6 +392,7 @@ class SimulationImpl final : public Simulation {
   std::string pass_name() const override { return pass_name_; }
   std::size_t device_bytes() const override { return solver_.engine->device_bytes(); }
   std::string profile_report() const override { return solver_.engine->profile_report(); }
+  std::uint64_t graph_steps() const override { return solver_.engine->graph_steps(); }
   int rank() const override { return comm().rank(); }
   int ranks() const override { return comm().size(); }
   std::vector<double> rank_costs() override { return domain_->rank_costs(); }

@@ -31,6 +31,11 @@ struct SimulationOptions {
   // over frozen neighbours kept (ARCHITECTURE.md). Off only to measure what that saves (`rockflow
   // bench --frozen-part off`); the physics is the same, the order of sums differs.
   bool frozen_part = true;
+  // CUDA backend: runs of steps captured once as a CUDA graph and replayed (ARCHITECTURE.md), so
+  // a small system is not bound by kernel launches. Every bit of the result is the same; off only
+  // to measure what it saves (`rockflow bench --graphs off`). Runs with a reorder interval,
+  // injection, decomposition or profiling step without graphs.
+  bool graphs = true;
   // Cell-list resolution: cells of rc / cells_per_cutoff, scanned cells_per_cutoff deep. Changes
   // speed and the order of force sums (so results at round-off), not the physics. 1 measured
   // fastest on the GPU (docs/benchmarks.md); the CPU is indifferent.
@@ -154,6 +159,8 @@ class Simulation {
   virtual std::string pass_name() const = 0;     // the compiled term set this run uses
   virtual std::size_t device_bytes() const = 0;  // device memory held by the backend
   virtual std::string profile_report() const = 0;
+  // Steps run as replays or captures of a CUDA graph (SimulationOptions::graphs; 0 on the CPU).
+  virtual std::uint64_t graph_steps() const = 0;
 
   // A decomposed run: this rank, the ranks, and each rank's cost now (the load-balance measure:
   // sum over its particles of neighbours x (1 for a frozen particle, 4.5 for a mobile one: the

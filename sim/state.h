@@ -160,6 +160,8 @@ class Engine {
   virtual std::size_t device_bytes() const { return 0; }
   // Per-pass times when profiling was asked for ("" otherwise).
   virtual std::string profile_report() const { return ""; }
+  // Steps run through a CUDA graph so far (SimulationOptions::graphs; 0 on the CPU).
+  virtual std::uint64_t graph_steps() const { return 0; }
   // The numerical watchdog (sim/watchdog.h), checked after every step while enabled.
   virtual void set_watchdog(const WatchdogOptions& o) { watchdog_ = o; }
   // Set-up only (SimulationOptions::interrupt_check): set around initialize/restore, then cleared;

@@ -13,6 +13,7 @@
 #include "mesorock/errors.h"
 #include "pipeline/flow/systems.h"
 #include "sim/domain/communicator.h"
+#include "sim/ensemble.h"
 #include "sim/memory_budget.h"
 
 namespace mesorock::pipeline {
@@ -75,7 +76,7 @@ void check_bench_memory(const BenchOptions& o) {
                      " of host memory)");
   const double cpc = std::max(1, o.sim.cells_per_cutoff);
   const double cells = n / 6.9 * cpc * cpc * cpc;
-  const double sims = o.compare_watchdog ? 2 : 1;
+  const double sims = o.compare_watchdog ? 2 : std::max(1, o.ensemble);
   auto refuse_if_short = [&](double per_particle, double per_cell, const sim::MemoryAvailable& have,
                              const char* what) {
     const std::string why =
@@ -97,6 +98,11 @@ void check_bench_memory(const BenchOptions& o) {
 BenchResult run_bench(const BenchOptions& o) {
   if (o.particles < 1000) throw ConfigError("--particles must be at least 1000");
   if (o.steps < 1) throw ConfigError("--steps must be at least 1");
+  if (o.ensemble > 1 &&
+      (o.compare_watchdog || o.sim.decomposition.force || (o.sim.comm && o.sim.comm->size() > 1)))
+    throw ConfigError(
+        "--ensemble runs single-rank systems side by side: not with --watchdog "
+        "compare, --decompose or mpirun");
   check_bench_memory(o);
   const auto t0 = Clock::now();
   BuiltSystem s;
@@ -133,21 +139,39 @@ BenchResult run_bench(const BenchOptions& o) {
   }
   sim::SimulationOptions timed = o.sim;
   timed.profile = false;  // the timed run never synchronises per step
-  auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, timed);
-  const std::uint64_t warm = std::max<std::uint64_t>(5, o.steps / 10);
-  if (s.relax_steps > 0) {
-    sim->set_dt(s.relax_dt);
-    sim->run(s.relax_steps);
-    sim->set_dt(0.01);
-  }
-  sim->run(warm);
-  (void)sim->kinetic_temperature();  // forces completion of queued device work
+  const int members = std::max(1, o.ensemble);
+  if (members > 1 && timed.backend == sim::BackendKind::CPU && timed.threads <= 0)
+    timed.threads = std::max(1, omp_get_max_threads() / members);  // the members share the cores
+  // Member k: the case with seed + k. One member runs on this thread alone.
+  std::vector<std::unique_ptr<sim::Simulation>> sims(static_cast<size_t>(members));
+  sim::run_ensemble(members, [&](int k) {
+    sim::Model model = s.model;
+    model.seed += static_cast<std::uint64_t>(k);
+    auto sim = sim::make_simulation(model, s.box, s.particles, 0.01, timed);
+    if (s.relax_steps > 0) {
+      sim->set_dt(s.relax_dt);
+      sim->run(s.relax_steps);
+      sim->set_dt(0.01);
+    }
+    sim->run(std::max<std::uint64_t>(5, o.steps / 10));
+    (void)sim->kinetic_temperature();  // forces completion of queued device work
+    sims[static_cast<size_t>(k)] = std::move(sim);
+  });
+  std::vector<double> temperatures(static_cast<size_t>(members));
   const auto t1 = Clock::now();
-  sim->run(o.steps);
-  const double T = sim->kinetic_temperature();  // synchronises, and checks the run stayed sane
+  sim::run_ensemble(members, [&](int k) {
+    sims[static_cast<size_t>(k)]->run(o.steps);
+    // Synchronises, and checks the run stayed sane.
+    temperatures[static_cast<size_t>(k)] = sims[static_cast<size_t>(k)]->kinetic_temperature();
+  });
   const auto t2 = Clock::now();
-  if (!std::isfinite(T)) throw NumericalError("bench: temperature is not finite after the run");
+  for (double T : temperatures)
+    if (!std::isfinite(T)) throw NumericalError("bench: temperature is not finite after the run");
+  std::unique_ptr<sim::Simulation>& sim = sims[0];
   BenchResult r;
+  r.ensemble = members;
+  r.graph_step_fraction = static_cast<double>(sim->graph_steps()) /
+                          static_cast<double>(std::max<std::uint64_t>(1, sim->step()));
   r.case_name = o.case_name;
   r.backend = sim->backend_name();
   r.precision = sim::to_string(o.precision);
@@ -160,13 +184,14 @@ BenchResult run_bench(const BenchOptions& o) {
   r.reorder_every = o.sim.reorder_every;
   r.skin = o.sim.skin;
   r.decomposed = o.sim.comm && (o.sim.comm->size() > 1 || o.sim.decomposition.force);
-  r.threads = o.sim.backend == sim::BackendKind::CPU
-                  ? (o.sim.threads > 0 ? o.sim.threads : omp_get_max_threads())
+  r.threads = timed.backend == sim::BackendKind::CPU
+                  ? (timed.threads > 0 ? timed.threads : omp_get_max_threads())
                   : 0;
   r.setup_seconds = std::chrono::duration<double>(t1 - t0).count();
   // The final temperature read copies velocities back: a small, honest part of the timing.
   r.seconds = std::chrono::duration<double>(t2 - t1).count();
-  r.mps = static_cast<double>(r.particles) * static_cast<double>(r.steps) / r.seconds / 1e6;
+  r.mps =
+      static_cast<double>(r.particles) * members * static_cast<double>(r.steps) / r.seconds / 1e6;
   const std::uint32_t frozen = s.model.frozen_mask();
   r.mobile_particles = std::count_if(s.particles.type.begin(), s.particles.type.end(),
                                      [&](std::int32_t t) { return !((frozen >> t) & 1u); });
@@ -175,7 +200,7 @@ BenchResult run_bench(const BenchOptions& o) {
       static_cast<double>(sim->device_bytes()) / static_cast<double>(r.particles);
   if (o.sim.profile) {
     // A separate, synchronising run for the per-pass breakdown.
-    sim.reset();
+    sims.clear();
     auto profiled = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
     profiled->run(std::max<std::uint64_t>(5, o.steps / 4));
     r.profile = profiled->profile_report();
@@ -201,7 +226,9 @@ std::string format_bench_json(const BenchResult& r) {
                       {"reorder_every", r.reorder_every},
                       {"skin", r.skin},
                       {"ranks", r.ranks},
-                      {"decomposed", r.decomposed}};
+                      {"decomposed", r.decomposed},
+                      {"ensemble", r.ensemble},
+                      {"graph_step_fraction", r.graph_step_fraction}};
   if (!r.profile.empty()) j["profile"] = r.profile;
   if (r.mps_watchdog_off > 0) {
     j["mps_watchdog_off"] = r.mps_watchdog_off;
@@ -215,9 +242,10 @@ std::string format_bench_json(const BenchResult& r) {
 
 std::string format_bench_text(const BenchResult& r) {
   std::ostringstream s;
-  s << std::setprecision(4) << "bench " << r.case_name << ": " << r.particles << " particles x "
-    << r.steps << " steps on " << r.backend;
-  if (r.threads > 0) s << " (" << r.threads << " threads)";
+  s << std::setprecision(4) << "bench " << r.case_name << ": ";
+  if (r.ensemble > 1) s << r.ensemble << " systems side by side, each of ";
+  s << r.particles << " particles x " << r.steps << " steps on " << r.backend;
+  if (r.threads > 0) s << " (" << r.threads << (r.ensemble > 1 ? " threads each)" : " threads)");
   if (r.decomposed) s << ", decomposed over " << r.ranks << " rank(s)";
   if (r.reorder_every > 1)
     s << ", sorted every " << r.reorder_every << " steps (skin " << r.skin << ")";
@@ -228,6 +256,9 @@ std::string format_bench_text(const BenchResult& r) {
       << " mobile)";
   if (r.device_bytes_per_particle > 0)
     s << ", " << r.device_bytes_per_particle << " GPU bytes/particle";
+  if (r.graph_step_fraction > 0)
+    s << ", " << std::setprecision(3) << 100 * r.graph_step_fraction
+      << "% of steps through CUDA graphs" << std::setprecision(4);
   s << "\n";
   if (!r.profile.empty()) s << "  " << r.profile << "\n";
   if (r.mps_watchdog_off > 0)

@@ -16,6 +16,9 @@ struct BenchOptions {
   sim::SimulationOptions sim;
   // Times the same case with the watchdog off and on, in alternating rounds (its cost).
   bool compare_watchdog = false;
+  // Independent copies of the case (seeds seed, seed + 1, ...) stepped side by side
+  // (sim/ensemble.h); MPS/s counts all of them.
+  int ensemble = 1;
 };
 
 struct BenchResult {
@@ -40,6 +43,9 @@ struct BenchResult {
   bool watchdog = true;
   // compare_watchdog only: MPS/s with the watchdog off and on, and its cost in % of a step.
   double mps_watchdog_off = 0, mps_watchdog_on = 0, watchdog_cost_percent = 0;
+  int ensemble = 1;  // members; particles is per member, mps over all of them
+  // The share of the first member's steps that ran through CUDA graphs (0 without).
+  double graph_step_fraction = 0;
 };
 
 // Builds the case, runs steps/10 (at least 5) warm-up steps, then times `steps` steps.

@@ -16,7 +16,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
     bool json = false, compare_cpu = false, profile = false, decompose = false;
     int reorder_every = 1;
     double skin = 0;
-    std::string frozen_part = "on";
+    std::string frozen_part = "on", graphs = "on";
     int cells_per_rc = sim::SimulationOptions{}.cells_per_cutoff;
   };
   auto a = std::make_shared<Args>();
@@ -54,6 +54,18 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
                    "mobile ones (off: only to measure what it saves)")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
+  bench
+      ->add_option("--graphs", a->graphs,
+                   "CUDA: replay runs of steps captured as CUDA graphs (on) or launch every "
+                   "kernel (off: only to measure what graphs save; the results are the same)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  bench
+      ->add_option("--ensemble", a->bo.ensemble,
+                   "run this many copies of the case side by side (seeds seed, seed+1, ...); "
+                   "MPS/s counts them all")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
   bench->add_flag("--profile", a->profile,
                   "CUDA: also time each pass (kick, sort, density, force)");
   bench->add_option("--cells-per-rc", a->cells_per_rc, "cell-list cells per cutoff (1-4)")
@@ -67,6 +79,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         const bool root = !bo.sim.comm || bo.sim.comm->rank() == 0;  // rank 0 alone prints
         bo.sim.profile = a->profile;
         bo.sim.frozen_part = a->frozen_part == "on";
+        bo.sim.graphs = a->graphs == "on";
         bo.sim.cells_per_cutoff = a->cells_per_rc;
         bo.sim.reorder_every = a->reorder_every;
         bo.sim.skin = a->skin;

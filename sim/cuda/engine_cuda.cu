@@ -3,6 +3,9 @@
 // (only with a many-body term); forces; kick. Nothing crosses to the host unless an output asks.
 #include <cuda_runtime.h>
 
+#include <algorithm>
+#include <array>
+#include <cstring>
 #include <cub/block/block_reduce.cuh>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
@@ -99,6 +102,11 @@ __global__ void for_each_kernel(StepView<Real> v, Body body) {
   if (i < v.n) body(v, i);
 }
 
+// The end of a captured run of steps: the next replay's first step.
+__global__ void step_base_kernel(std::uint64_t* base, std::uint64_t steps) {
+  *base += steps;
+}
+
 // The sort keys of particles [0, count): the cell, offset by the cell count for a frozen one
 // (StepView::frozen_part).
 template <class Real>
@@ -134,15 +142,34 @@ __global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, con
   if (k < n) out[k] = in[perm[k]];
 }
 
-// out[k] = in[perm[k]] for k < m, in[k] for m <= k < n (a sort of the first m entries only).
-template <class T>
-__global__ void gather_kernel(const T* __restrict__ in, T* __restrict__ out, const int* perm, int m,
-                              int n) {
+// The arrays a cell sort moves (positions, velocities, v~, type, origin, id), each with the buffer
+// it is gathered into: one launch moves them all.
+template <class Real>
+struct PermuteTable {
+  static constexpr int kMaxReal = 9;
+  const Real* in[kMaxReal] = {};
+  Real* out[kMaxReal] = {};
+  int reals = 0;
+  const std::int32_t* in_int[2] = {};
+  std::int32_t* out_int[2] = {};
+  const std::int64_t* in_id = nullptr;
+  std::int64_t* out_id = nullptr;
+};
+
+// out[k] = in[perm[k]] for k < m, in[k] for m <= k < count (a sort of the first m entries, the
+// rest copied as they are).
+template <class Real>
+__global__ void permute_kernel(PermuteTable<Real> t, const int* __restrict__ perm, int m,
+                               int count) {
   const int k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k < m)
-    out[k] = in[perm[k]];
-  else if (k < n)
-    out[k] = in[k];
+  if (k >= count) return;
+  const int from = k < m ? perm[k] : k;
+#pragma unroll
+  for (int a = 0; a < PermuteTable<Real>::kMaxReal; ++a)
+    if (a < t.reals) t.out[a][k] = t.in[a][from];
+  t.out_int[0][k] = t.in_int[0][from];
+  t.out_int[1][k] = t.in_int[1][from];
+  t.out_id[k] = t.in_id[from];
 }
 
 // Each thread's neighbour stash (sim/kernels.h) in shared memory, slot k at k * blockDim.x so
@@ -486,7 +513,7 @@ __global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecor
   double value = 0;
   const int q = watchdog_check(v, i, max_speed2, value);
   if (q != kWatchdogOk)
-    watchdog_record(record, v.step, v.id[i], q, value, double(v.x[i]), double(v.y[i]),
+    watchdog_record(record, v.current_step(), v.id[i], q, value, double(v.x[i]), double(v.y[i]),
                     double(v.z[i]));
 }
 
@@ -496,7 +523,7 @@ __global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecor
 template <class Real>
 __global__ void watchdog_resolve_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record) {
   if (record->count <= static_cast<unsigned int>(kWatchdogSlots) || record->resolved ||
-      record->first_step != static_cast<unsigned long long>(v.step))
+      record->first_step != static_cast<unsigned long long>(v.current_step()))
     return;
   for (int i = threadIdx.x; i < v.n; i += blockDim.x) {
     if (static_cast<unsigned long long>(v.id[i]) != record->min_id) continue;
@@ -504,7 +531,7 @@ __global__ void watchdog_resolve_kernel(StepView<Real> v, Real max_speed2, Watch
     const int q = watchdog_check(v, i, max_speed2, value);
     if (q == kWatchdogOk) continue;  // a ghost copy of it in a decomposed run
     WatchdogHit& h = record->slots[0];
-    h.step = v.step;
+    h.step = v.current_step();
     h.id = v.id[i];
     h.quantity = q;
     h.value = value;
@@ -543,9 +570,9 @@ class CudaEngine final : public Engine<Real>,
   using W = typename Terms::wall_model;
 
  public:
-  CudaEngine(int device, bool profile, bool frozen_part)
-      : profile_(profile), frozen_part_(frozen_part) {
-    check(cudaSetDevice(device), "cudaSetDevice");
+  explicit CudaEngine(const CudaEngineOptions& o)
+      : device_(o.device), profile_(o.profile), frozen_part_(o.frozen_part), graphs_(o.graphs) {
+    check(cudaSetDevice(device_), "cudaSetDevice");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
   }
@@ -555,6 +582,8 @@ class CudaEngine final : public Engine<Real>,
     if (count_host_) cudaFreeHost(count_host_);
     if (watchdog_host_) cudaFreeHost(watchdog_host_);
     if (watchdog_event_) cudaEventDestroy(watchdog_event_);
+    for (CapturedSteps& g : graphs_kept_)
+      if (g.exec) cudaGraphExecDestroy(g.exec);
   }
 
   const char* name() const override { return "cuda"; }
@@ -563,7 +592,7 @@ class CudaEngine final : public Engine<Real>,
     this->attach_hooks(hooks);
     upload(host);
     this->initial_forces();
-    check(cudaDeviceSynchronize(), "initial forces");
+    check(cudaStreamSynchronize(cudaStreamPerThread), "initial forces");
   }
 
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
@@ -574,12 +603,14 @@ class CudaEngine final : public Engine<Real>,
     // A single-rank checkpoint is already sorted (stable sort: no particle moves); a gathered one
     // (decomposed run) is in the original order, so the last forces move with their particles.
     this->sort(true);
-    check(cudaDeviceSynchronize(), "restore");
+    check(cudaStreamSynchronize(cudaStreamPerThread), "restore");
   }
 
   void upload(HostState<Real>& host) {
     host_ = &host;
     frozen_sums_valid_ = false;
+    warmed_ = false;
+    ++epoch_;
     corrected_ = wall_corrections();  // the count before the sort, kept
     if (early_count_.size() > 0)
       check(cudaMemset(early_count_.get(), 0, sizeof(unsigned long long)), "count reset");
@@ -609,9 +640,12 @@ class CudaEngine final : public Engine<Real>,
     cell_sorted_.resize(static_cast<size_t>(n));
     index_.resize(static_cast<size_t>(n));
     perm_.resize(static_cast<size_t>(n));
-    scratch_real_.resize(static_cast<size_t>(n));
-    scratch_int_.resize(static_cast<size_t>(n));
-    scratch_id_.resize(static_cast<size_t>(n));
+    const auto moved = moved_reals();
+    for (size_t a = 0; a < moved.size(); ++a) moved_alt_[a].resize(moved[a]->size());
+    type_alt_.resize(static_cast<size_t>(n));
+    origin_alt_.resize(static_cast<size_t>(n));
+    id_alt_.resize(static_cast<size_t>(n));
+    step_base_.resize(1);
     size_t temp = 0;
     check(cub::DeviceRadixSort::SortPairs(nullptr, temp, cell_.get(), cell_sorted_.get(),
                                           index_.get(), perm_.get(), n),
@@ -651,9 +685,41 @@ class CudaEngine final : public Engine<Real>,
                                                    slab_velocity_.get());
   }
 
-  void advance(std::uint64_t steps) override { this->run_steps(steps); }
+  // With graphs: runs of up to kGraphSteps steps (an even number) captured once and replayed
+  // while nothing they bake in changes (graph_state_key); the first steps after set-up (until
+  // the frozen part is sorted) and a last odd step step as usual. The watchdog polls between
+  // replays.
+  void advance(std::uint64_t steps) override {
+    check(cudaSetDevice(device_), "cudaSetDevice");
+    if (!graphs_possible()) {
+      this->run_steps(steps);
+      return;
+    }
+    defer_poll_ = true;
+    try {
+      for (std::uint64_t done = 0; done < steps;) {
+        const std::uint64_t run = std::min(steps - done, kGraphSteps) & ~std::uint64_t(1);
+        if (!graph_ready() || run == 0) {
+          this->run_steps(1);
+          ++done;
+        } else {
+          run_graph(run);
+          done += run;
+        }
+      }
+    } catch (...) {
+      defer_poll_ = false;
+      throw;
+    }
+    defer_poll_ = false;
+    this->finish_steps(steps);
+  }
 
   void set_dt(Real dt) override { dt_ = dt; }
+  void set_watchdog(const WatchdogOptions& o) override {
+    this->watchdog_ = o;
+    ++epoch_;
+  }
 
   // The watchdog: a check kernel per step; the host reads the record every poll_steps steps
   // through pinned memory (reading the copy enqueued at the previous poll, long done by then) and
@@ -663,13 +729,18 @@ class CudaEngine final : public Engine<Real>,
     if (!watchdog_host_) {
       watchdog_record_.upload(std::vector<WatchdogRecord>(1));
       check(cudaMallocHost(&watchdog_host_, sizeof(WatchdogRecord)), "cudaMallocHost");
-      check(cudaEventCreateWithFlags(&watchdog_event_, cudaEventDisableTiming), "cudaEventCreate");
+      // Blocking: a host thread that waits for a poll sleeps instead of spinning, so the threads
+      // of an ensemble (sim/ensemble.h) leave the cores to the others' launches.
+      check(cudaEventCreateWithFlags(&watchdog_event_,
+                                     cudaEventDisableTiming | cudaEventBlockingSync),
+            "cudaEventCreate");
     }
     const double limit = watchdog_speed_limit(this->watchdog_, static_cast<double>(dt_));
     watchdog_kernel<Real><<<blocks_for(n_), kBlock>>>(view(), static_cast<Real>(limit * limit),
                                                       watchdog_record_.get());
     watchdog_resolve_kernel<Real>
         <<<1, 256>>>(view(), static_cast<Real>(limit * limit), watchdog_record_.get());
+    if (capturing_) return;  // counted when the graph is launched
     if (++watchdog_since_poll_ >= this->watchdog_.poll_steps) watchdog_poll(false);
   }
   void watchdog_poll(bool now) {
@@ -700,7 +771,7 @@ class CudaEngine final : public Engine<Real>,
   std::uint64_t step() const override { return step_; }
 
   void download(HostState<Real>& host) override {
-    check(cudaDeviceSynchronize(), "step");
+    check(cudaStreamSynchronize(cudaStreamPerThread), "step");
     DeviceBuffer<Real>* arrays[] = {&x_,   &y_,   &z_,  &vx_, &vy_, &vz_, &vex_,
                                     &vey_, &vez_, &fx_, &fy_, &fz_, &rho_};
     std::vector<Real>* targets[] = {&host.x,  &host.y,   &host.z,   &host.vx,  &host.vy,
@@ -838,6 +909,10 @@ class CudaEngine final : public Engine<Real>,
     v.dt = dt_;
     v.inv_sqrt_dt = Real(1) / static_cast<Real>(std::sqrt(static_cast<double>(dt_)));
     v.step = step_;
+    if (capturing_) {  // StepView::step_base
+      v.step = step_ - capture_first_step_;
+      v.step_base = step_base_.get();
+    }
     return v;
   }
 
@@ -915,7 +990,9 @@ class CudaEngine final : public Engine<Real>,
 
   void finish_steps(std::uint64_t steps) {
     check(cudaGetLastError(), "step kernels");
-    if (this->watchdog_.enabled && steps > 0) watchdog_poll(true);
+    if (capturing_) return;
+    warmed_ = true;
+    if (this->watchdog_.enabled && steps > 0 && !defer_poll_) watchdog_poll(true);
   }
 
   // carry_forces: forces, densities and phi move with their particles too (a restored state; a
@@ -942,21 +1019,43 @@ class CudaEngine final : public Engine<Real>,
           "radix sort");
     cell_start_kernel<<<blocks_for(keys + 1), kBlock>>>(cell_sorted_.get(), m, keys,
                                                         cell_start_.get());
-    // The permutation of [0, m), the rest copied as it is (the scratch buffer takes turns among
-    // the arrays, so its frozen part is another array's): one launch per array, as a full sort.
-    auto permute = [&](auto& a, auto& scratch) {
-      gather_kernel<<<blocks_for(n_), kBlock>>>(a.get(), scratch.get(), perm_.get(), m, n_);
-      a.swap(scratch);
-    };
-    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_})
-      if (a->size() > 0) permute(*a, scratch_real_);  // v~ is empty without a thermostat
-    permute(type_, scratch_int_);
-    permute(origin_, scratch_int_);
-    permute(id_, scratch_id_);
-    if (carry_forces)
+    // The permutation of [0, m). The frozen part behind it never changes while its sums hold, so
+    // it is copied only until both buffers of each array hold it (the first sort after a full
+    // one).
+    permute_moved(m, mobile_only && !tail_pending_ ? m : n_);
+    tail_pending_ = !mobile_only;
+    if (carry_forces)  // through x's second buffer, free after the permutation
       for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_, &rho_, &bvf_})
-        if (a->size() > 0) permute(*a, scratch_real_);  // phi is empty without the wall model
+        if (a->size() > 0) {  // phi is empty without the wall model
+          gather_kernel<<<blocks_for(n_), kBlock>>>(a->get(), moved_alt_[0].get(), perm_.get(), n_);
+          a->swap(moved_alt_[0]);
+        }
     if (!mobile_only && split_frozen()) update_frozen_sums();
+  }
+
+  // The arrays a sort moves: out[k] = in[perm[k]] for k < m, in[k] up to count; each into its
+  // second buffer, then the two swap (every array is back in its own buffer after two sorts, which
+  // lets a captured graph of an even number of steps be replayed).
+  void permute_moved(int m, int count) {
+    PermuteTable<Real> t;
+    const auto reals = moved_reals();
+    for (size_t a = 0; a < reals.size(); ++a)
+      if (reals[a]->size() > 0) {  // v~ is empty without a thermostat
+        t.in[t.reals] = reals[a]->get();
+        t.out[t.reals++] = moved_alt_[a].get();
+      }
+    t.in_int[0] = type_.get(), t.out_int[0] = type_alt_.get();
+    t.in_int[1] = origin_.get(), t.out_int[1] = origin_alt_.get();
+    t.in_id = id_.get(), t.out_id = id_alt_.get();
+    permute_kernel<<<blocks_for(count), kBlock>>>(t, perm_.get(), m, count);
+    for (size_t a = 0; a < reals.size(); ++a)
+      if (reals[a]->size() > 0) reals[a]->swap(moved_alt_[a]);
+    type_.swap(type_alt_);
+    origin_.swap(origin_alt_);
+    id_.swap(id_alt_);
+  }
+  std::array<DeviceBuffer<Real>*, PermuteTable<Real>::kMaxReal> moved_reals() {
+    return {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_};
   }
 
   // After a full sort with a frozen part: where it starts, and its static sums (kept until the
@@ -1004,16 +1103,8 @@ class CudaEngine final : public Engine<Real>,
       return;
     }
     // Compact: the kept particles, in order, to the front (velocities, v~, positions, type, id;
-    // forces and sums are recomputed before they are read).
-    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_}) {
-      if (a->size() == 0) continue;
-      gather_kernel<<<blocks_for(kept), kBlock>>>(a->get(), scratch_real_.get(), perm_.get(), kept);
-      a->swap(scratch_real_);
-    }
-    gather_kernel<<<blocks_for(kept), kBlock>>>(type_.get(), scratch_int_.get(), perm_.get(), kept);
-    type_.swap(scratch_int_);
-    gather_kernel<<<blocks_for(kept), kBlock>>>(id_.get(), scratch_id_.get(), perm_.get(), kept);
-    id_.swap(scratch_id_);
+    // origin is renumbered below; forces and sums are recomputed before they are read).
+    permute_moved(kept, kept);
     resize_particles(kept);
     iota_kernel<<<blocks_for(kept), kBlock>>>(origin_.get(), kept);
   }
@@ -1132,14 +1223,17 @@ class CudaEngine final : public Engine<Real>,
   void resize_particles(int n) {
     const size_t s = static_cast<size_t>(n);
     frozen_sums_valid_ = false;
-    for (DeviceBuffer<Real>* a :
-         {&x_, &y_, &z_, &vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &rho_, &scratch_real_})
+    warmed_ = false;
+    for (DeviceBuffer<Real>* a : {&x_, &y_, &z_, &vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &rho_})
       a->set_size(s);
     if constexpr (T::enabled)
       for (DeviceBuffer<Real>* a : {&vex_, &vey_, &vez_}) a->set_size(s);
     if constexpr (W::enabled) bvf_.set_size(s);
-    for (DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_}) a->set_size(s);
-    for (DeviceBuffer<std::int64_t>* a : {&id_, &scratch_id_}) a->set_size(s);
+    const auto moved = moved_reals();
+    for (size_t a = 0; a < moved.size(); ++a) moved_alt_[a].set_size(moved[a]->size());
+    for (DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
+      a->set_size(s);
+    for (DeviceBuffer<std::int64_t>* a : {&id_, &id_alt_}) a->set_size(s);
     for (DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_}) a->set_size(s);
     n_ = n;
     size_t temp = 0;
@@ -1178,13 +1272,14 @@ class CudaEngine final : public Engine<Real>,
   std::size_t device_bytes() const override {
     std::size_t b = 0;
     for (const DeviceBuffer<Real>* a :
-         {&x_,     &y_,  &z_,  &vx_, &vy_,         &vz_,           &vex_,        &vey_,
-          &vez_,   &fx_, &fy_, &fz_, &rho_,        &scratch_real_, &body_force_, &bvf_,
-          &kappa_, &x0_, &y0_, &z0_, &frozen_rho_, &frozen_bvf_})
+         {&x_,          &y_,     &z_,  &vx_, &vy_, &vz_,         &vex_,
+          &vey_,        &vez_,   &fx_, &fy_, &fz_, &rho_,        &bvf_,
+          &body_force_, &kappa_, &x0_, &y0_, &z0_, &frozen_rho_, &frozen_bvf_})
       b += a->size() * sizeof(Real);
-    for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &scratch_int_})
+    for (const DeviceBuffer<Real>& a : moved_alt_) b += a.size() * sizeof(Real);
+    for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
       b += a->size() * sizeof(std::int32_t);
-    b += (id_.size() + scratch_id_.size()) * sizeof(std::int64_t);
+    b += (id_.size() + id_alt_.size()) * sizeof(std::int64_t);
     for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
       b += a->size() * sizeof(int);
     b += sort_temp_.size() + solid_.size() + table_.size() * sizeof(PairParams<Real>) +
@@ -1198,6 +1293,141 @@ class CudaEngine final : public Engine<Real>,
   // switched off (SimulationOptions::frozen_part, to measure what it saves).
   bool split_frozen() const { return frozen_part_ && host_->frozen_mask != 0; }
 
+  std::uint64_t graph_steps() const override { return graph_steps_; }
+
+ private:
+  // ---- CUDA graphs (SimulationOptions::graphs). ----
+  // A run of steps is captured once and replayed while nothing it bakes in changes. Even: the
+  // sort's buffers swap back every two steps (permute_moved), so the storage is where the
+  // capture left it. A few lengths are kept (a sweep samples every 10 steps, say).
+  static constexpr std::uint64_t kGraphSteps = 16;
+  static constexpr size_t kGraphsKept = 4;
+
+  // Runs whose steps read something back to the host (the corrector after the sums, a reorder
+  // interval's check, injection picks, a decomposition, profiling) step without graphs.
+  bool graphs_possible() const {
+    return graphs_ && !profile_ && !this->hooks().distributed() && host_->injections.empty() &&
+           host_->reorder_every <= 1 && (!W::enabled || split_frozen());
+  }
+  // Set-up is done (every buffer allocated, a step run since the last upload) and the frozen
+  // part, if any, is sorted and copied into both buffers: no step of the run will differ.
+  bool graph_ready() const {
+    return warmed_ && (!split_frozen() || (frozen_sums_valid_ && !tail_pending_));
+  }
+
+  // What a captured graph bakes in: the buffers, the sizes and the parameters of the view.
+  std::vector<std::uintptr_t> graph_state_key() {
+    std::vector<std::uintptr_t> k;
+    auto add = [&](const auto& buffer) {
+      k.push_back(reinterpret_cast<std::uintptr_t>(buffer.get()));
+    };
+    for (DeviceBuffer<Real>* a : moved_reals()) add(*a);
+    for (const DeviceBuffer<Real>& a : moved_alt_) add(a);
+    for (const DeviceBuffer<Real>* a :
+         {&fx_, &fy_, &fz_, &rho_, &bvf_, &kappa_, &body_force_, &slab_half_velocity_,
+          &slab_velocity_, &frozen_rho_, &frozen_bvf_})
+      add(*a);
+    for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
+      add(*a);
+    add(id_), add(id_alt_);
+    for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
+      add(*a);
+    add(sort_temp_), add(table_), add(solid_), add(slab_bodies_), add(slab_partials_);
+    add(early_count_), add(watchdog_record_), add(step_base_);
+    double dt = static_cast<double>(dt_);
+    std::uint64_t dt_bits = 0;
+    std::memcpy(&dt_bits, &dt, sizeof dt_bits);
+    for (std::uint64_t x :
+         {std::uint64_t(n_), std::uint64_t(mobile_count_), std::uint64_t(ncells_),
+          std::uint64_t(frozen_sums_valid_), std::uint64_t(tail_pending_), dt_bits, epoch_})
+      k.push_back(static_cast<std::uintptr_t>(x));
+    return k;
+  }
+
+  // The host's per-step counters, which a replay advances as the captured steps did.
+  struct StepCounters {
+    std::uint64_t early = 0, late = 0, full_sorts = 0, mobile_sorts = 0;
+  };
+  StepCounters counters() const { return {early_steps_, late_steps_, full_sorts_, mobile_sorts_}; }
+
+  // A captured run of steps: its length, what it baked in, and the host counters it advances.
+  struct CapturedSteps {
+    std::uint64_t steps = 0;
+    std::vector<std::uintptr_t> key;
+    cudaGraphExec_t exec = nullptr;
+    StepCounters delta;
+  };
+
+  void run_graph(std::uint64_t steps) {
+    std::vector<std::uintptr_t> key = graph_state_key();
+    auto g = std::find_if(graphs_kept_.begin(), graphs_kept_.end(),
+                          [&](const CapturedSteps& c) { return c.steps == steps; });
+    if (g != graphs_kept_.end() && g->key == key) {
+      if (device_base_step_ != step_) set_device_base(step_);
+      check(cudaGraphLaunch(g->exec, cudaStreamPerThread), "graph launch");
+      step_ += steps;
+      early_steps_ += g->delta.early, late_steps_ += g->delta.late;
+      full_sorts_ += g->delta.full_sorts, mobile_sorts_ += g->delta.mobile_sorts;
+    } else {
+      if (g == graphs_kept_.end()) {
+        if (graphs_kept_.size() >= kGraphsKept) release_graph(graphs_kept_.begin());
+        graphs_kept_.push_back({steps, {}, nullptr, {}});
+        g = graphs_kept_.end() - 1;
+      }
+      capture_graph(*g);  // and runs it
+      g->key = std::move(key);
+    }
+    device_base_step_ = step_;
+    graph_steps_ += steps;
+    if (this->watchdog_.enabled) {
+      watchdog_since_poll_ += static_cast<int>(steps);
+      if (watchdog_since_poll_ >= this->watchdog_.poll_steps) watchdog_poll(false);
+    }
+  }
+
+  // Captures g.steps steps of the step sequence (kernels only: graphs_possible), then launches
+  // them from their first step.
+  void capture_graph(CapturedSteps& g) {
+    if (g.exec) check(cudaGraphExecDestroy(g.exec), "graph release");
+    g.exec = nullptr;
+    const StepCounters before = counters();
+    capture_first_step_ = step_;
+    cudaGraph_t graph = nullptr;
+    check(cudaStreamBeginCapture(cudaStreamPerThread, cudaStreamCaptureModeThreadLocal),
+          "graph capture");
+    capturing_ = true;
+    try {
+      this->run_steps(g.steps);
+      step_base_kernel<<<1, 1>>>(step_base_.get(), g.steps);
+    } catch (...) {
+      capturing_ = false;
+      cudaStreamEndCapture(cudaStreamPerThread, &graph);
+      if (graph) cudaGraphDestroy(graph);
+      throw;
+    }
+    capturing_ = false;
+    check(cudaStreamEndCapture(cudaStreamPerThread, &graph), "graph capture");
+    const cudaError_t e = cudaGraphInstantiate(&g.exec, graph, 0);
+    cudaGraphDestroy(graph);
+    check(e, "graph instantiation");
+    const StepCounters after = counters();
+    g.delta = {after.early - before.early, after.late - before.late,
+               after.full_sorts - before.full_sorts, after.mobile_sorts - before.mobile_sorts};
+    set_device_base(capture_first_step_);
+    check(cudaGraphLaunch(g.exec, cudaStreamPerThread), "graph launch");
+    ++graph_captures_;
+  }
+
+  void release_graph(typename std::vector<CapturedSteps>::iterator g) {
+    if (g->exec) cudaGraphExecDestroy(g->exec);
+    graphs_kept_.erase(g);
+  }
+
+  void set_device_base(std::uint64_t step) {
+    check(cudaMemcpy(step_base_.get(), &step, sizeof step, cudaMemcpyHostToDevice), "step base");
+  }
+
+ public:
   std::string profile_report() const override {
     if (!profile_ || profiled_steps_ == 0) return "";
     static const char* names[kPasses] = {"kick_drift",     "corrector", "cell_sort", "density",
@@ -1220,14 +1450,20 @@ class CudaEngine final : public Engine<Real>,
   }
 
  private:
+  int device_ = 0;
   HostState<Real>* host_ = nullptr;
   int n_ = 0, ncells_ = 0;
   std::uint64_t step_ = 0;
   Real dt_ = Real(0.01);
   DeviceBuffer<Real> x_, y_, z_, vx_, vy_, vz_, vex_, vey_, vez_, fx_, fy_, fz_, rho_;
-  DeviceBuffer<std::int32_t> type_, origin_, scratch_int_;
-  DeviceBuffer<std::int64_t> id_, scratch_id_;
-  DeviceBuffer<Real> scratch_real_;
+  DeviceBuffer<std::int32_t> type_, origin_;
+  DeviceBuffer<std::int64_t> id_;
+  // The second buffer of each array a sort moves (permute_moved; moved_alt_ in moved_reals'
+  // order), and whether the frozen part is still to be copied into them.
+  DeviceBuffer<Real> moved_alt_[PermuteTable<Real>::kMaxReal];
+  DeviceBuffer<std::int32_t> type_alt_, origin_alt_;
+  DeviceBuffer<std::int64_t> id_alt_;
+  bool tail_pending_ = true;
   DeviceBuffer<int> cell_, cell_sorted_, index_, perm_, cell_start_;
   DeviceBuffer<unsigned char> sort_temp_;
   DeviceBuffer<PairParams<Real>> table_;
@@ -1278,22 +1514,33 @@ class CudaEngine final : public Engine<Real>,
   cudaEvent_t watchdog_event_ = nullptr;
   bool watchdog_pending_ = false;
   int watchdog_since_poll_ = 0;
+  // CUDA graphs: on unless switched off; the executable graph, what it baked in, its first step
+  // and the step the device's step base holds; host counters a replay advances.
+  bool graphs_ = true;
+  bool capturing_ = false;
+  bool defer_poll_ = false;  // advance() polls the watchdog once at its end
+  bool warmed_ = false;      // a step run since the last upload or resize
+  std::uint64_t epoch_ = 0;  // a new host state or watchdog: graphs captured before are stale
+  std::vector<CapturedSteps> graphs_kept_;
+  std::uint64_t capture_first_step_ = 0, device_base_step_ = ~std::uint64_t(0);
+  DeviceBuffer<std::uint64_t> step_base_;
+  std::uint64_t graph_steps_ = 0, graph_captures_ = 0;
 };
 
 }  // namespace
 
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile,
-                                               bool frozen_part) {
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, const CudaEngineOptions& o) {
   std::unique_ptr<Engine<Real>> engine;
-  dispatch_terms(model, [&](auto terms) {
-    engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(device, profile, frozen_part);
-  });
+  dispatch_terms(
+      model, [&](auto terms) { engine = std::make_unique<CudaEngine<Real, decltype(terms)>>(o); });
   return engine;
 }
 
-template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&, int, bool, bool);
-template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&, int, bool, bool);
+template std::unique_ptr<Engine<float>> make_cuda_engine<float>(const Model&,
+                                                                const CudaEngineOptions&);
+template std::unique_ptr<Engine<double>> make_cuda_engine<double>(const Model&,
+                                                                  const CudaEngineOptions&);
 
 std::string cuda_unavailable_reason() {
   int count = 0;

@@ -8,9 +8,15 @@
 
 namespace mesorock::sim {
 
-// frozen_part: SimulationOptions::frozen_part.
+// SimulationOptions' CUDA choices (sim/simulation.h).
+struct CudaEngineOptions {
+  int device = 0;
+  bool profile = false;
+  bool frozen_part = true;
+  bool graphs = true;
+};
+
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, int device, bool profile,
-                                               bool frozen_part);
+std::unique_ptr<Engine<Real>> make_cuda_engine(const Model& model, const CudaEngineOptions& o);
 
 }  // namespace mesorock::sim

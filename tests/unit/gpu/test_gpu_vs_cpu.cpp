@@ -158,6 +158,38 @@ TEST_P(GpuVsCpu, CorrectionsBeforeTheSortKeepTheSumsExact) {
   EXPECT_EQ(report.find("before the sort on 0 steps"), std::string::npos) << report;
 }
 
+// CUDA graphs replay captured runs of steps, reading the step number from device memory; every
+// bit must equal the launches one by one, with and without the wall model (its corrector before
+// the sort) and over runs that end mid-graph (the remainders step alone, and the next replay
+// must start from the right step).
+TEST_P(GpuVsCpu, GraphsChangeNoBit) {
+  for (bool walls : {false, true}) {
+    Case c = mixed_case(GetParam(), ms::ConservativeKind::MDPD, ms::DensityKernelKind::Warren);
+    c.model.wall_model.enabled = walls;
+    ms::SimulationOptions on, off;
+    on.backend = off.backend = ms::BackendKind::CUDA;
+    off.graphs = false;
+    auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01, on);
+    auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, off);
+    for (int steps : {40, 13, 64, 7}) {
+      a->run(steps);
+      b->run(steps);
+    }
+    EXPECT_GE(a->graph_steps(), 96u) << "walls " << walls;
+    EXPECT_EQ(b->graph_steps(), 0u);
+    EXPECT_EQ(a->step(), b->step());
+    EXPECT_EQ(a->wall_corrections(), b->wall_corrections());
+    const auto pa = a->particles(), pb = b->particles();
+    ASSERT_EQ(pa.size(), pb.size());
+    for (size_t i = 0; i < pa.size(); ++i) {
+      ASSERT_EQ(pa.id[i], pb.id[i]);
+      ASSERT_EQ(pa.x[i], pb.x[i]) << "walls " << walls << ", particle " << i;
+      ASSERT_EQ(pa.z[i], pb.z[i]) << "walls " << walls << ", particle " << i;
+      ASSERT_EQ(pa.vy[i], pb.vy[i]) << "walls " << walls << ", particle " << i;
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Precisions, GpuVsCpu,
                          ::testing::Values(ms::Precision::Single, ms::Precision::Double),
                          [](const auto& info) { return std::string(ms::to_string(info.param)); });
