@@ -1053,7 +1053,8 @@ std::string init_key(const InitSpec& in, size_t k) {
 
 }  // namespace
 
-void check_memory_for(const Scene& scene, const sim::SimulationOptions& options) {
+void check_memory_for(const Scene& scene, const sim::SimulationOptions& options, int copies) {
+  copies = std::max(1, copies);
   const std::string file = scene.path.string();
   std::vector<double> counts;
   double total = 0;
@@ -1078,8 +1079,13 @@ void check_memory_for(const Scene& scene, const sim::SimulationOptions& options)
   // Which key asked: the largest block when it alone does not fit, else the blocks together.
   auto refuse_if_short = [&](double per_particle, double fixed, const sim::MemoryAvailable& have,
                              const char* what) {
-    const std::string why = sim::memory_shortfall(total * per_particle + fixed, have, what);
+    const std::string why =
+        sim::memory_shortfall(copies * (total * per_particle + fixed), have, what);
     if (why.empty()) return;
+    if (copies > 1)
+      throw LimitError(file + ": " + std::to_string(copies) + " runs side by side of " +
+                       count_text(total) + " particles (" + num(per_particle) +
+                       " bytes each): they " + why);
     const size_t k =
         static_cast<size_t>(std::max_element(counts.begin(), counts.end()) - counts.begin());
     const bool alone = k < counts.size() &&

@@ -100,8 +100,9 @@ bool stage_is_averaged(const Scene& scene, const std::string& stage_name);
 // memory for every backend, device memory too for CUDA): a LimitError (exit 2) naming the block
 // ("init[1].count") or "[[init]] blocks: total", with the bytes needed and available. File blocks
 // count the particles in the file's header without reading them. build_initial_particles checks
-// the host memory itself; commands call this for the device too.
-void check_memory_for(const Scene& scene, const sim::SimulationOptions& options);
+// the host memory itself; commands call this for the device too. copies: runs of the scene held
+// at once (`rockflow sweep --side-by-side`).
+void check_memory_for(const Scene& scene, const sim::SimulationOptions& options, int copies = 1);
 
 // Builds the initial particles a scene describes (random/lattice fills, HDF5 files), with
 // Maxwell velocities at model.kBT for mobile particles of generated blocks (particles read from

@@ -35,10 +35,17 @@ ProgressMeter::ProgressMeter(std::string label, std::ostream& out, bool enabled)
       last_draw_(start_) {}
 
 void ProgressMeter::set_total(double particle_steps) {
+  std::lock_guard<std::mutex> lock(mutex_);
   total_ = particle_steps;
 }
 
+void ProgressMeter::add_total(double particle_steps) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  total_ += particle_steps;
+}
+
 void ProgressMeter::set_phase(const std::string& phase) {
+  std::lock_guard<std::mutex> lock(mutex_);
   phase_ = phase;
   draw(false);
 }
@@ -48,6 +55,7 @@ double ProgressMeter::seconds() const {
 }
 
 void ProgressMeter::advance(std::uint64_t steps, std::size_t particles) {
+  std::lock_guard<std::mutex> lock(mutex_);
   done_ += static_cast<double>(steps) * static_cast<double>(particles);
   draw(false);
 }
@@ -88,6 +96,7 @@ void ProgressMeter::draw(bool force) {
 }
 
 void ProgressMeter::finish(const std::string& result) {
+  std::lock_guard<std::mutex> lock(mutex_);
   if (!enabled_) return;
   clear_progress_line(out_);
   const double el = seconds();

@@ -2,11 +2,13 @@
 // A progress line for long commands (`rockflow validate`, `rockflow sweep`): work done of the
 // total in particle-steps, MPS/s (million particle-steps per second), elapsed time and ETA, and
 // what the command is doing now. On a terminal one line is redrawn; in a log, a line about every
-// tenth of the work (every 30 s while the total is unknown). Fed by SimulationOptions::on_run.
+// tenth of the work (every 30 s while the total is unknown). Fed by SimulationOptions::on_run;
+// safe to feed from several threads at once (the points of `rockflow sweep --side-by-side`).
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <iosfwd>
+#include <mutex>
 #include <string>
 
 namespace mesorock::pipeline {
@@ -17,7 +19,7 @@ class ProgressMeter {
   ProgressMeter(std::string label, std::ostream& out, bool enabled = true);
   // Expected total work in particle-steps (0 = unknown: no ETA).
   void set_total(double particle_steps);
-  void add_total(double particle_steps) { set_total(total_ + particle_steps); }
+  void add_total(double particle_steps);
   // What the command is doing now (shown after the numbers).
   void set_phase(const std::string& phase);
   // `steps` steps of `particles` particles were just run.
@@ -25,11 +27,15 @@ class ProgressMeter {
   // The closing line: work, time, mean MPS/s.
   void finish(const std::string& result = "");
 
-  double work() const { return done_; }
+  double work() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return done_;
+  }
   double seconds() const;
 
  private:
-  void draw(bool force);
+  void draw(bool force);  // with mutex_ held
+  mutable std::mutex mutex_;
   std::string label_;
   std::ostream& out_;
   bool enabled_, tty_;

@@ -1,5 +1,7 @@
 #include "pipeline/flow/sweep.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +17,7 @@
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/progress.h"
 #include "pipeline/flow/viscosity_calibration.h"
+#include "sim/ensemble.h"
 #include "sim/observables.h"
 #include "sim/particle_io.h"
 
@@ -94,17 +97,129 @@ std::string fmt(double v, int precision = 4) {
 
 }  // namespace
 
+namespace {
+
+// What every point of a sweep shares.
+struct SweepPlan {
+  std::vector<double> forces;  // ascending
+  double volume = 0;
+  sim::BinGrid whole;  // one bin over the box, driven types only: its sum v is V J
+  size_t axis = 0;
+  std::uint64_t least_blocks = 0;
+};
+
+// Point k of the sweep, from the particles `from`; `final_state`, when given, receives its last
+// particles (the next chained point's start). `phases`: the point may name what it does on the
+// progress line (false when points run side by side).
+SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const SweepPlan& plan,
+                     size_t k, const sim::ParticleSet& from,
+                     const sim::SimulationOptions& sim_options, bool phases,
+                     sim::ParticleSet* final_state) {
+  const std::vector<double>& forces = plan.forces;
+  const double volume = plan.volume;
+  const sim::BinGrid& whole = plan.whole;
+  const size_t axis = plan.axis;
+  const std::uint64_t least_blocks = plan.least_blocks;
+  phases = phases && o.meter;
+  SweepPoint p;
+  p.force = forces[k];
+  p.gradient = o.fluid_density * p.force;
+  sim::Model model = sample.model;
+  for (int t = 0; t < model.ntypes(); ++t)
+    if ((o.driven_types >> t) & 1u) {
+      model.types[static_cast<size_t>(t)].body_force = {0, 0, 0};
+      model.types[static_cast<size_t>(t)].body_force[axis] = p.force;
+    }
+  model.seed = sample.model.seed + k;  // independent thermal noise at each point
+  const auto t_point = std::chrono::steady_clock::now();
+  auto sim = sim::make_simulation(model, sample.box, from, o.dt, sim_options);
+  const std::string label = "point " + std::to_string(k + 1) + "/" + std::to_string(forces.size()) +
+                            " g = " + fmt(p.force, 3);
+  if (phases) o.meter->set_phase(label + ": warm-up");
+  sim->run(o.warmup_steps);
+  p.steps = o.warmup_steps;
+  std::vector<double>& J = p.block_flux;
+  size_t measure_from = 0;
+  const std::uint64_t per_block = o.block_steps / o.sample_every;
+  while (true) {
+    double sum = 0;
+    for (std::uint64_t s = 0; s < per_block; ++s) {
+      sim->run(o.sample_every);
+      sum += sim->bin_sums(whole)[sim::kBinVx + axis] / volume;
+    }
+    J.push_back(sum / static_cast<double>(per_block));
+    p.steps += o.block_steps;
+    if (!std::isfinite(J.back()))
+      throw NumericalError("sweep: " + label + ": the flow rate is not finite after " +
+                           std::to_string(p.steps) + " steps");
+    const size_t n = J.size(), w = static_cast<size_t>(o.window);
+    if (!p.steady && n >= 2 * w) {
+      const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
+      const double noise =
+          2 * std::hypot(standard_error(J, n - 2 * w, n - w), standard_error(J, n - w, n));
+      if (std::abs(m2 - m1) <= std::max(o.tolerance * std::abs(m2), noise)) {
+        p.steady = true;
+        p.steady_after = p.steps;
+        measure_from = n;
+      }
+    }
+    p.leaks.check(*sim, sim->step());  // the leak invariant (throws past its limit)
+    if (p.steady && J.size() - measure_from >= static_cast<size_t>(o.measure_blocks)) {
+      const Trend t = trend_of(J, measure_from, J.size());
+      if (!t.significant()) break;
+      // Still drifting: this measurement does not describe a steady flow. Wait again.
+      p.steady = false;
+      ++p.restarts;
+    }
+    if (p.steps + o.block_steps > o.max_steps) break;
+    if (o.meter) {  // (thread-safe: ProgressMeter)
+      // Past the least plan (warm-up + 2 windows + measurement): one more block to expect.
+      if (J.size() >= least_blocks)
+        o.meter->add_total(static_cast<double>(sample.particles.size()) *
+                           static_cast<double>(o.block_steps));
+      if (phases)
+        o.meter->set_phase(label + ": block " + std::to_string(J.size()) +
+                           (p.steady ? ", steady, measuring" : ", waiting for a steady flow") +
+                           ", J = " + fmt(J.back(), 3));
+    }
+  }
+  if (!p.steady) measure_from = J.size() - std::min(J.size(), size_t(o.measure_blocks));
+  p.flux = mean_of(J, measure_from, J.size());
+  p.flux_error = standard_error(J, measure_from, J.size());
+  {
+    const Trend t = trend_of(J, measure_from, J.size());
+    const double blocks = static_cast<double>(J.size() - measure_from);
+    p.drift = p.flux != 0 ? t.slope * blocks / p.flux : 0.0;
+    p.drift_error = p.flux != 0 ? std::abs(t.slope_error * blocks / p.flux) : 0.0;
+    if (p.steady && t.significant()) p.steady = false;  // ran out of steps while drifting
+  }
+  p.darcy_velocity = p.flux / o.fluid_density;
+  p.darcy_velocity_error = p.flux_error / o.fluid_density;
+  p.permeability = o.viscosity * p.darcy_velocity / p.gradient;
+  p.permeability_error =
+      std::abs(p.permeability) *
+      std::hypot(p.flux != 0 ? p.flux_error / p.flux : 0.0, o.viscosity_error / o.viscosity);
+  p.temperature = sim->kinetic_temperature();
+  p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_point).count();
+  if (final_state) *final_state = sim->particles();
+  return p;
+}
+
+}  // namespace
+
 std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions& o) {
   check_options(sample, o);
   std::vector<double> forces = o.forces;
   std::sort(forces.begin(), forces.end());
-  const double volume = sample.box.volume();
-  sim::BinGrid whole;  // one bin over the box, driven types only: its sum v is V J
-  whole.lo = sample.box.lo;
-  whole.hi = sample.box.hi;
-  whole.type_mask = o.driven_types;
-  const auto axis = static_cast<size_t>(o.axis);
-  const std::uint64_t least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
+  SweepPlan plan;
+  plan.forces = forces;
+  plan.volume = sample.box.volume();
+  plan.whole.lo = sample.box.lo;
+  plan.whole.hi = sample.box.hi;
+  plan.whole.type_mask = o.driven_types;
+  plan.axis = static_cast<size_t>(o.axis);
+  plan.least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
+  const std::uint64_t least_blocks = plan.least_blocks;
   std::uint64_t prepare_steps = 0;
   for (const auto& stage : o.prepare) prepare_steps += stage.first;
   if (o.meter)
@@ -126,90 +241,24 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
     }
     prepared = sim->particles();
   }
-  sim::ParticleSet start = prepared;
-  for (size_t k = 0; k < forces.size(); ++k) {
-    SweepPoint p;
-    p.force = forces[k];
-    p.gradient = o.fluid_density * p.force;
-    sim::Model model = sample.model;
-    for (int t = 0; t < model.ntypes(); ++t)
-      if ((o.driven_types >> t) & 1u) {
-        model.types[static_cast<size_t>(t)].body_force = {0, 0, 0};
-        model.types[static_cast<size_t>(t)].body_force[axis] = p.force;
-      }
-    model.seed = sample.model.seed + k;  // independent thermal noise at each point
-    const auto t_point = std::chrono::steady_clock::now();
-    auto sim = sim::make_simulation(model, sample.box, o.chain ? start : prepared, o.dt, o.sim);
-    const std::string label = "point " + std::to_string(k + 1) + "/" +
-                              std::to_string(forces.size()) + " g = " + fmt(p.force, 3);
-    if (o.meter) o.meter->set_phase(label + ": warm-up");
-    sim->run(o.warmup_steps);
-    p.steps = o.warmup_steps;
-    std::vector<double>& J = p.block_flux;
-    size_t measure_from = 0;
-    const std::uint64_t per_block = o.block_steps / o.sample_every;
-    while (true) {
-      double sum = 0;
-      for (std::uint64_t s = 0; s < per_block; ++s) {
-        sim->run(o.sample_every);
-        sum += sim->bin_sums(whole)[sim::kBinVx + axis] / volume;
-      }
-      J.push_back(sum / static_cast<double>(per_block));
-      p.steps += o.block_steps;
-      if (!std::isfinite(J.back()))
-        throw NumericalError("sweep: " + label + ": the flow rate is not finite after " +
-                             std::to_string(p.steps) + " steps");
-      const size_t n = J.size(), w = static_cast<size_t>(o.window);
-      if (!p.steady && n >= 2 * w) {
-        const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
-        const double noise =
-            2 * std::hypot(standard_error(J, n - 2 * w, n - w), standard_error(J, n - w, n));
-        if (std::abs(m2 - m1) <= std::max(o.tolerance * std::abs(m2), noise)) {
-          p.steady = true;
-          p.steady_after = p.steps;
-          measure_from = n;
-        }
-      }
-      p.leaks.check(*sim, sim->step());  // the leak invariant (throws past its limit)
-      if (p.steady && J.size() - measure_from >= static_cast<size_t>(o.measure_blocks)) {
-        const Trend t = trend_of(J, measure_from, J.size());
-        if (!t.significant()) break;
-        // Still drifting: this measurement does not describe a steady flow. Wait again.
-        p.steady = false;
-        ++p.restarts;
-      }
-      if (p.steps + o.block_steps > o.max_steps) break;
-      if (o.meter) {
-        // Past the least plan (warm-up + 2 windows + measurement): one more block to expect.
-        if (J.size() >= least_blocks)
-          o.meter->add_total(static_cast<double>(sample.particles.size()) *
-                             static_cast<double>(o.block_steps));
-        o.meter->set_phase(label + ": block " + std::to_string(J.size()) +
-                           (p.steady ? ", steady, measuring" : ", waiting for a steady flow") +
-                           ", J = " + fmt(J.back(), 3));
-      }
-    }
-    if (!p.steady) measure_from = J.size() - std::min(J.size(), size_t(o.measure_blocks));
-    p.flux = mean_of(J, measure_from, J.size());
-    p.flux_error = standard_error(J, measure_from, J.size());
-    {
-      const Trend t = trend_of(J, measure_from, J.size());
-      const double blocks = static_cast<double>(J.size() - measure_from);
-      p.drift = p.flux != 0 ? t.slope * blocks / p.flux : 0.0;
-      p.drift_error = p.flux != 0 ? std::abs(t.slope_error * blocks / p.flux) : 0.0;
-      if (p.steady && t.significant()) p.steady = false;  // ran out of steps while drifting
-    }
-    p.darcy_velocity = p.flux / o.fluid_density;
-    p.darcy_velocity_error = p.flux_error / o.fluid_density;
-    p.permeability = o.viscosity * p.darcy_velocity / p.gradient;
-    p.permeability_error =
-        std::abs(p.permeability) *
-        std::hypot(p.flux != 0 ? p.flux_error / p.flux : 0.0, o.viscosity_error / o.viscosity);
-    p.temperature = sim->kinetic_temperature();
-    p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_point).count();
-    if (o.chain) start = sim->particles();
-    points.push_back(std::move(p));
+  if (o.side_by_side) {
+    // Every point from the prepared particles, all at once (sim/ensemble.h); on the CPU they
+    // share the cores.
+    sim::SimulationOptions each = o.sim;
+    if (each.backend == sim::BackendKind::CPU && each.threads <= 0)
+      each.threads = std::max(1, omp_get_max_threads() / static_cast<int>(forces.size()));
+    if (o.meter) o.meter->set_phase(std::to_string(forces.size()) + " points side by side");
+    points.resize(forces.size());
+    sim::run_ensemble(static_cast<int>(forces.size()), [&](int k) {
+      points[static_cast<size_t>(k)] =
+          run_point(sample, o, plan, static_cast<size_t>(k), prepared, each, false, nullptr);
+    });
+    return points;
   }
+  sim::ParticleSet start = prepared;
+  for (size_t k = 0; k < forces.size(); ++k)
+    points.push_back(run_point(sample, o, plan, k, o.chain ? start : prepared, o.sim, true,
+                               o.chain ? &start : nullptr));
   return points;
 }
 
@@ -539,7 +588,8 @@ nlohmann::json points_throughput(const SweepRecord& r, std::size_t particles, st
   double seconds = 0, steps = 0;
   nlohmann::json each = nlohmann::json::array();  // timings stay out of "points" (results)
   for (const auto& p : r.points) {
-    seconds += p.seconds;
+    // Side by side, the points' times overlap: the longest is the time they took.
+    seconds = r.o.side_by_side ? std::max(seconds, p.seconds) : seconds + p.seconds;
     steps += static_cast<double>(p.steps);
     each.push_back(p.seconds);
   }
@@ -587,7 +637,8 @@ nlohmann::json sweep_summary(const SweepRecord& r, std::size_t fluid_count,
         {"tolerance", o.tolerance},
         {"measure_blocks", o.measure_blocks},
         {"max_steps", o.max_steps},
-        {"chained", o.chain},
+        {"chained", o.chain && !o.side_by_side},
+        {"side_by_side", o.side_by_side},
         {"rule",
          "steady when the mean flux of the last window blocks agrees with the window before "
          "within the tolerance (relative) or two combined standard errors; then measure_blocks "

@@ -57,6 +57,10 @@ struct SweepOptions {
   // Each point starts from the last point's final state (less warm-up); false: all from the
   // sample's initial particles.
   bool chain = true;
+  // Every point from the prepared particles (not chained), all at once, each on a host thread of
+  // its own (sim/ensemble.h): on the GPU the points' steps overlap, on the CPU they share the
+  // cores. Each point computes every bit it computes in an unchained sweep one point at a time.
+  bool side_by_side = false;
   // Stages run once before the first point (steps, dt): the scene's stages before its last, such
   // as the relax stage at a small dt that takes a freshly packed sample's overlaps out. A sweep
   // that started a packed rock at dt = 0.01 and g = 0.16 ran away in 219 steps.

@@ -129,6 +129,41 @@ TEST(Sweep, AnAcceleratingFlowIsNotSteady) {
   EXPECT_THROW(mp::run_sweep({s.model, s.box, s.particles}, o), mesorock::ConfigError);
 }
 
+// --side-by-side runs every point at once from the prepared particles: each point must give
+// every bit of the same point in an unchained sweep run one point at a time (its own seed, its
+// own simulation), and differ from the chained sweep's second point (which starts elsewhere).
+TEST(Sweep, SideBySidePointsEqualTheUnchainedPointsOneAtATime) {
+  const double L[3] = {4, 4, 4};
+  auto s = mp::make_bulk_dpd(25, 4.5, 3.0, L, 5);
+  mp::SweepOptions o;
+  o.forces = {0.05, 0.02, 0.08};
+  o.driven_types = 1;
+  o.fluid_density = 3;
+  o.viscosity = 1;
+  o.warmup_steps = 50;
+  o.block_steps = 50;
+  o.window = 2;
+  o.measure_blocks = 2;
+  o.max_steps = 400;
+  o.chain = false;
+  const auto alone = mp::run_sweep({s.model, s.box, s.particles}, o);
+  o.side_by_side = true;
+  const auto together = mp::run_sweep({s.model, s.box, s.particles}, o);
+  o.side_by_side = false;
+  o.chain = true;
+  const auto chained = mp::run_sweep({s.model, s.box, s.particles}, o);
+  ASSERT_EQ(alone.size(), 3u);
+  ASSERT_EQ(together.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(alone[k].force, together[k].force);
+    EXPECT_EQ(alone[k].block_flux, together[k].block_flux) << "point " << k;
+    EXPECT_EQ(alone[k].temperature, together[k].temperature) << "point " << k;
+    EXPECT_EQ(alone[k].flux, together[k].flux) << "point " << k;
+  }
+  EXPECT_EQ(alone[0].block_flux, chained[0].block_flux);  // the first point starts alike
+  EXPECT_NE(alone[1].block_flux, chained[1].block_flux);
+}
+
 // A slit pore of lattice walls (the wall model on), fluid driven along x.
 const char* kSlit = R"(name = "tiny-slit"
 seed = 3
