@@ -38,4 +38,11 @@ void run_ensemble(int count, const std::function<void(int member)>& job, int max
     if (e) std::rethrow_exception(e);
 }
 
+int ensemble_lanes(int members, double particles, int requested) {
+  if (requested != 0) return requested;
+  // The CUDA engine's one-lane threshold (CudaEngine::lanes_for: kTwoLanesUpTo).
+  constexpr double kFillsTheGpu = 250000;
+  return members > 1 && members * particles > kFillsTheGpu ? 1 : 0;
+}
+
 }  // namespace mesorock::sim

@@ -109,9 +109,25 @@ struct StepView {
 // part there is.
 enum class Parts : int { All = 0, MobileOnly = 1, FrozenOnly = 2 };
 
-template <class Real, class Visit>
+// The threads that share one particle's scan in the GPU's gather passes (sim/cuda: LaneGroup):
+// lane k of kCount takes the k-th, (k + kCount)-th, ... candidate of each run of cells, the
+// bodies add their partial sums with sum() and the leader writes. Why: a small system has too
+// few particles to fill the GPU with one thread each. OneLane, the default (the CPU, the other
+// passes, large systems), is the scan unchanged: every sum in the order it always had.
+struct OneLane {
+  static constexpr int kCount = 1;
+  MESO_HD int index() const { return 0; }
+  MESO_HD bool leader() const { return true; }
+  template <class T>
+  MESO_HD T sum(T x) const {
+    return x;
+  }
+};
+
+template <class Real, class Visit, class Lanes = OneLane>
 MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visit&& visit,
-                                            Parts parts = Parts::All) {
+                                            Parts parts = Parts::All,
+                                            const Lanes& lanes = Lanes{}) {
   const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
   const CellGrid<Real>& g = v.grid;
   const int cx = g.coordinate(xi, v.box.lo[0], 0);
@@ -143,7 +159,8 @@ MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visi
         for (int part = first_part; part < last_part; ++part) {
           const int base = row + part * v.frozen_part;
           const int end = v.cell_start[base + x_last[run]];
-          for (int j = v.cell_start[base + x_first[run]]; j < end; ++j) {
+          for (int j = v.cell_start[base + x_first[run]] + lanes.index(); j < end;
+               j += Lanes::kCount) {
             Real dx = (xi - v.x[j]) - sx;
             Real dy = (yi - v.y[j]) - sy;
             Real dz = (zi - v.z[j]) - sz;
@@ -177,16 +194,18 @@ MESO_HD MESO_INLINE Real displacement2(const StepView<Real>& v, const Real* x0, 
   return dx * dx + dy * dy + dz * dz;
 }
 
-// Calls visit(j, dx, dy, dz, r2) for every particle j != i within the cutoff rc = 1.
-template <class Real, class Visit>
+// Calls visit(j, dx, dy, dz, r2) for every particle j != i within the cutoff rc = 1 (this lane's
+// share of them).
+template <class Real, class Visit, class Lanes = OneLane>
 MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visit&& visit,
-                                            Parts parts = Parts::All) {
+                                            Parts parts = Parts::All,
+                                            const Lanes& lanes = Lanes{}) {
   for_each_candidate(
       v, i,
       [&](int j, Real dx, Real dy, Real dz, Real r2) {
         if (r2 < Real(1) && j != i) visit(j, dx, dy, dz, r2);
       },
-      parts);
+      parts, lanes);
 }
 
 // A per-thread list of the neighbour indices a scan found, visited after the scan. Why: on the
@@ -210,14 +229,15 @@ struct NeighbourStash {
 // gives the same bits as the cell shifts of the scan: on an axis the stencil does not cover whole
 // (2 reach + 1 cells or more, so an edge above 2 rc), a neighbour within rc differs from its raw
 // separation by exactly 0 or +-L, and the raw separation is then below L/2 or beyond it.
-template <class Real, class Visit>
+template <class Real, class Visit, class Lanes = OneLane>
 MESO_HD MESO_INLINE void for_each_neighbour_stashed(const StepView<Real>& v, int i,
-                                                    const NeighbourStash& stash, Visit&& visit) {
+                                                    const NeighbourStash& stash, Visit&& visit,
+                                                    const Lanes& lanes = Lanes{}) {
 #if !defined(__CUDA_ARCH__) || defined(MESOROCK_NO_NEIGHBOUR_STASH)
   // The CPU visits in place: its branch predictor copes with the scan, and the stash measured
   // slower there (bulk, 200,000 particles, one thread: 0.318 MPS/s with it, 0.377 without).
   (void)stash;
-  for_each_neighbour(v, i, visit);
+  for_each_neighbour(v, i, visit, Parts::All, lanes);
 #else
   const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
   int count = 0;
@@ -231,12 +251,15 @@ MESO_HD MESO_INLINE void for_each_neighbour_stashed(const StepView<Real>& v, int
     }
     count = 0;
   };
-  for_each_candidate(v, i, [&](int j, Real, Real, Real, Real r2) {
-    // Store unconditionally, keep it only when it is a neighbour: no branch in the scan.
-    stash[count] = j;
-    count += (r2 < Real(1)) & (j != i);
-    if (count == NeighbourStash::kCapacity) flush();
-  });
+  for_each_candidate(
+      v, i,
+      [&](int j, Real, Real, Real, Real r2) {
+        // Store unconditionally, keep it only when it is a neighbour: no branch in the scan.
+        stash[count] = j;
+        count += (r2 < Real(1)) & (j != i);
+        if (count == NeighbourStash::kCapacity) flush();
+      },
+      Parts::All, lanes);
   flush();
 #endif
 }
@@ -252,8 +275,9 @@ MESO_HD MESO_INLINE constexpr Real coincident_r2() {
 // Density pass: rho_i = sum_{j != i} w(r_ij). Frozen particles need it too (their rho enters the
 // many-body force on the fluid). With the frozen particles' static sums (StepView::frozen_rho),
 // a frozen particle adds only its mobile neighbours to them.
-template <class Real, class DensityKernel>
-MESO_HD MESO_INLINE void add_density(const StepView<Real>& v, int i, Parts parts, Real& rho) {
+template <class Real, class DensityKernel, class Lanes = OneLane>
+MESO_HD MESO_INLINE void add_density(const StepView<Real>& v, int i, Parts parts, Real& rho,
+                                     const Lanes& lanes = Lanes{}) {
   // In place, not stashed: this body is cheap, and the stash measured slower here (H200, porous
   // 16 M: 7.8 ms per pass with it, 6.7 without; docs/benchmarks.md).
   const Real rd = v.rd;
@@ -263,29 +287,32 @@ MESO_HD MESO_INLINE void add_density(const StepView<Real>& v, int i, Parts parts
       [&](int, Real, Real, Real, Real r2) {
         if (r2 < rd2) rho += DensityKernel::weight(real_sqrt(r2), rd);
       },
-      parts);
+      parts, lanes);
 }
 
-template <class Real, class DensityKernel>
-MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i) {
+// (Lanes: see OneLane. The kept sums start the leader's share, so they count once.)
+template <class Real, class DensityKernel, class Lanes = OneLane>
+MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i,
+                                             const Lanes& lanes = Lanes{}) {
   if (v.ghost(i)) return;  // a ghost's density comes from its owner
   Real rho = 0;
   Parts parts = Parts::All;
   if (v.frozen_rho && v.frozen(i)) {
-    rho = v.frozen_rho[v.frozen_index(i)];
+    if (lanes.leader()) rho = v.frozen_rho[v.frozen_index(i)];
     parts = Parts::MobileOnly;
   }
-  add_density<Real, DensityKernel>(v, i, parts, rho);
-  v.rho[i] = rho;
+  add_density<Real, DensityKernel>(v, i, parts, rho, lanes);
+  rho = lanes.sum(rho);
+  if (lanes.leader()) v.rho[i] = rho;
 }
 
 // Density (when DensityKernel is not void) and the wall model's sum of particle i over the
 // neighbours in `parts`, added to rho and wall:
 //   phi_i = (1 / n_w) sum_{j in wall} W(r_ij),  W the Lucy kernel of support rc,
 // for particles that are not wall themselves.
-template <class Real, class DensityKernel>
+template <class Real, class DensityKernel, class Lanes = OneLane>
 MESO_HD MESO_INLINE void add_density_and_wall(const StepView<Real>& v, int i, Parts parts,
-                                              Real& rho, Real& wall) {
+                                              Real& rho, Real& wall, const Lanes& lanes = Lanes{}) {
   constexpr bool kDensity = !std::is_void<DensityKernel>::value;
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
@@ -299,24 +326,30 @@ MESO_HD MESO_INLINE void add_density_and_wall(const StepView<Real>& v, int i, Pa
         }
         if (fluid && v.walls.is_wall(v.type[j])) wall += bvf_weight(r);
       },
-      parts);
+      parts, lanes);
 }
 
 // Density and the boundary volume fraction of the wall model (sim/wall_model.h) in one neighbour
 // loop (phi = 0 for wall particles).
-template <class Real, class DensityKernel>
-MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, int i) {
+template <class Real, class DensityKernel, class Lanes = OneLane>
+MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, int i,
+                                                     const Lanes& lanes = Lanes{}) {
   constexpr bool kDensity = !std::is_void<DensityKernel>::value;
   if (v.ghost(i)) return;  // a ghost's sums come from its owner
   Real rho = 0, wall = 0;
   Parts parts = Parts::All;
   if (v.frozen_bvf && v.frozen(i)) {
     const int k = v.frozen_index(i);
-    if constexpr (kDensity) rho = v.frozen_rho[k];
-    wall = v.frozen_bvf[k];
+    if (lanes.leader()) {
+      if constexpr (kDensity) rho = v.frozen_rho[k];
+      wall = v.frozen_bvf[k];
+    }
     parts = Parts::MobileOnly;
   }
-  add_density_and_wall<Real, DensityKernel>(v, i, parts, rho, wall);
+  add_density_and_wall<Real, DensityKernel>(v, i, parts, rho, wall, lanes);
+  if constexpr (kDensity) rho = lanes.sum(rho);
+  wall = lanes.sum(wall);
+  if (!lanes.leader()) return;
   if constexpr (kDensity) v.rho[i] = rho;
   v.bvf[i] = v.walls.is_wall(v.type[i]) ? Real(0) : wall * v.walls.inv_wall_density;
 }
@@ -487,21 +520,29 @@ MESO_HD MESO_INLINE void add_body_force([[maybe_unused]] const StepView<Real>& v
 
 // Force pass for one particle: f_i = sum_j F_ij + g_type. Frozen particles get f = 0.
 template <class Real, class Conservative, class Thermostat, class BodyForce,
-          class WallModel = NoWallModel>
+          class WallModel = NoWallModel, class Lanes = OneLane>
 MESO_HD MESO_INLINE void force_on_particle(const StepView<Real>& v, int i,
-                                           const NeighbourStash& stash) {
+                                           const NeighbourStash& stash,
+                                           const Lanes& lanes = Lanes{}) {
   Real fx = 0, fy = 0, fz = 0;
   if (!v.frozen(i) && !v.ghost(i)) {
     const PairSide<Real> self = pair_side<Real, Conservative, Thermostat>(v, i);
-    for_each_neighbour_stashed(v, i, stash, [&](int j, Real dx, Real dy, Real dz, Real r2) {
-      const Real s =
-          pair_force_over_r<Real, Conservative, Thermostat, WallModel>(v, self, j, dx, dy, dz, r2);
-      fx += s * dx;
-      fy += s * dy;
-      fz += s * dz;
-    });
+    for_each_neighbour_stashed(
+        v, i, stash,
+        [&](int j, Real dx, Real dy, Real dz, Real r2) {
+          const Real s = pair_force_over_r<Real, Conservative, Thermostat, WallModel>(
+              v, self, j, dx, dy, dz, r2);
+          fx += s * dx;
+          fy += s * dy;
+          fz += s * dz;
+        },
+        lanes);
+    fx = lanes.sum(fx);
+    fy = lanes.sum(fy);
+    fz = lanes.sum(fz);
     add_body_force<Real, BodyForce>(v, i, fx, fy, fz);
   }
+  if (!lanes.leader()) return;
   v.fx[i] = fx;
   v.fy[i] = fy;
   v.fz[i] = fz;

@@ -205,6 +205,7 @@ std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOp
   cuda.profile = opt.profile;
   cuda.frozen_part = opt.frozen_part;
   cuda.graphs = opt.graphs;
+  cuda.lanes = opt.lanes_per_particle;
   return make_cuda_engine<Real>(model, cuda);
 #else
   throw DeviceError(cuda_unavailable_reason());

@@ -36,6 +36,11 @@ struct SimulationOptions {
   // to measure what it saves (`rockflow bench --graphs off`). Runs with a reorder interval,
   // injection, decomposition or profiling step without graphs.
   bool graphs = true;
+  // CUDA backend: threads that share each particle's neighbour scan in the density and force
+  // passes, 1, 2, 4 or 8; 0 chooses by the particle count (more threads for a small system, which
+  // one thread per particle leaves mostly idle). Changes the order of the sums (results at
+  // round-off), not the physics.
+  int lanes_per_particle = 0;
   // Cell-list resolution: cells of rc / cells_per_cutoff, scanned cells_per_cutoff deep. Changes
   // speed and the order of force sums (so results at round-off), not the physics. 1 measured
   // fastest on the GPU (docs/benchmarks.md); the CPU is indifferent.

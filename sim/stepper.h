@@ -82,13 +82,16 @@ struct KickPass {
 // rho; with kWalls also phi, the wall model's boundary volume fraction. DensityKernel is void
 // without a many-body term: phi alone. Frozen pairs count (a frozen particle's rho enters the
 // force on its mobile neighbours).
+// (The gathers take the lanes that share particle i's scan: OneLane, or the GPU's LaneGroup.)
 template <class Real, class DensityKernel, bool kWalls>
 struct SumsPass {
-  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i) const {
+  template <class Lanes = OneLane>
+  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i,
+                                      const Lanes& lanes = Lanes{}) const {
     if constexpr (kWalls)
-      density_and_bvf_of_particle<Real, DensityKernel>(v, i);
+      density_and_bvf_of_particle<Real, DensityKernel>(v, i, lanes);
     else
-      density_of_particle<Real, DensityKernel>(v, i);
+      density_of_particle<Real, DensityKernel>(v, i, lanes);
   }
   MESO_HD MESO_INLINE void begin(const StepView<Real>& v, int i) const {
     begin_sums<Real, DensityKernel, kWalls>(v, i);
@@ -110,9 +113,11 @@ template <class Real, class Terms>
 struct ForcePass {
   using C = typename Terms::conservative;
   using T = typename Terms::thermostat;
-  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i, NeighbourStash stash) const {
-    force_on_particle<Real, C, T, typename Terms::body_force, typename Terms::wall_model>(v, i,
-                                                                                          stash);
+  template <class Lanes = OneLane>
+  MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i, NeighbourStash stash,
+                                      const Lanes& lanes = Lanes{}) const {
+    force_on_particle<Real, C, T, typename Terms::body_force, typename Terms::wall_model>(
+        v, i, stash, lanes);
   }
   MESO_HD MESO_INLINE void begin(const StepView<Real>& v, int i) const { begin_forces(v, i); }
   static constexpr bool kFinishes = true;

@@ -142,6 +142,8 @@ BenchResult run_bench(const BenchOptions& o) {
   const int members = std::max(1, o.ensemble);
   if (members > 1 && timed.backend == sim::BackendKind::CPU && timed.threads <= 0)
     timed.threads = std::max(1, omp_get_max_threads() / members);  // the members share the cores
+  timed.lanes_per_particle = sim::ensemble_lanes(members, static_cast<double>(s.particles.size()),
+                                                 timed.lanes_per_particle);
   // Member k: the case with seed + k. One member runs on this thread alone.
   std::vector<std::unique_ptr<sim::Simulation>> sims(static_cast<size_t>(members));
   sim::run_ensemble(members, [&](int k) {

@@ -14,7 +14,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
     BenchOptions bo;
     std::string precision = "single";
     bool json = false, compare_cpu = false, profile = false, decompose = false;
-    int reorder_every = 1;
+    int reorder_every = 1, lanes = 0;
     double skin = 0;
     std::string frozen_part = "on", graphs = "on";
     int cells_per_rc = sim::SimulationOptions{}.cells_per_cutoff;
@@ -66,6 +66,12 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
                    "MPS/s counts them all")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
+  bench
+      ->add_option("--lanes", a->lanes,
+                   "CUDA: threads per particle in the density and force passes (1, 2, 4, 8; 0: "
+                   "by the particle count)")
+      ->check(CLI::IsMember({0, 1, 2, 4, 8}))
+      ->capture_default_str();
   bench->add_flag("--profile", a->profile,
                   "CUDA: also time each pass (kick, sort, density, force)");
   bench->add_option("--cells-per-rc", a->cells_per_rc, "cell-list cells per cutoff (1-4)")
@@ -80,6 +86,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         bo.sim.profile = a->profile;
         bo.sim.frozen_part = a->frozen_part == "on";
         bo.sim.graphs = a->graphs == "on";
+        bo.sim.lanes_per_particle = a->lanes;
         bo.sim.cells_per_cutoff = a->cells_per_rc;
         bo.sim.reorder_every = a->reorder_every;
         bo.sim.skin = a->skin;

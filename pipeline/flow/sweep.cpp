@@ -247,6 +247,9 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
     sim::SimulationOptions each = o.sim;
     if (each.backend == sim::BackendKind::CPU && each.threads <= 0)
       each.threads = std::max(1, omp_get_max_threads() / static_cast<int>(forces.size()));
+    each.lanes_per_particle =
+        sim::ensemble_lanes(static_cast<int>(forces.size()), static_cast<double>(prepared.size()),
+                            each.lanes_per_particle);
     if (o.meter) o.meter->set_phase(std::to_string(forces.size()) + " points side by side");
     points.resize(forces.size());
     sim::run_ensemble(static_cast<int>(forces.size()), [&](int k) {

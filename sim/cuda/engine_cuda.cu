@@ -187,6 +187,38 @@ __global__ void for_each_stashed_kernel(StepView<Real> v, Body body) {
   if (i < v.n) body(v, i, thread_stash());
 }
 
+// L consecutive threads of a warp that share one particle's neighbour scan (OneLane in
+// sim/kernels.h): lane k takes every L-th candidate; sum() adds the lanes' partial sums with a
+// butterfly of shuffles, which gives every lane the same total in a fixed order.
+template <int L>
+struct LaneGroup {
+  static_assert(L == 2 || L == 4 || L == 8, "a lane group divides a warp");
+  static constexpr int kCount = L;
+  int lane;
+  __device__ int index() const { return lane; }
+  __device__ bool leader() const { return lane == 0; }
+  template <class T>
+  __device__ T sum(T x) const {
+    const unsigned group = ((1u << L) - 1u) << ((threadIdx.x & 31u) & ~unsigned(L - 1));
+    for (int o = L / 2; o > 0; o /= 2) x += __shfl_xor_sync(group, x, o, L);
+    return x;
+  }
+};
+
+// The gather passes with L threads per particle: particle t / L, lane t % L.
+template <int L, class Real, class Body>
+__global__ void for_each_lanes_kernel(StepView<Real> v, Body body) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  const int i = t / L;
+  if (i < v.n) body(v, i, LaneGroup<L>{t % L});
+}
+template <int L, class Real, class Body>
+__global__ void for_each_stashed_lanes_kernel(StepView<Real> v, Body body) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  const int i = t / L;
+  if (i < v.n) body(v, i, thread_stash(), LaneGroup<L>{t % L});
+}
+
 // The wall model's corrector. Decisions read phi, the particle's own velocity and the positions
 // of wall particles, none of which this kernel writes (the distance test also reads the positions
 // of mobile candidates, which may be being corrected, but only to discard them as not wall); so
@@ -571,7 +603,14 @@ class CudaEngine final : public Engine<Real>,
 
  public:
   explicit CudaEngine(const CudaEngineOptions& o)
-      : device_(o.device), profile_(o.profile), frozen_part_(o.frozen_part), graphs_(o.graphs) {
+      : device_(o.device),
+        profile_(o.profile),
+        frozen_part_(o.frozen_part),
+        graphs_(o.graphs),
+        lanes_(o.lanes) {
+    if (lanes_ != 0 && lanes_ != 1 && lanes_ != 2 && lanes_ != 4 && lanes_ != 8)
+      throw ConfigError("lanes per particle must be 0 (by the particle count), 1, 2, 4 or 8 (got " +
+                        std::to_string(lanes_) + ")");
     check(cudaSetDevice(device_), "cudaSetDevice");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
@@ -926,14 +965,45 @@ class CudaEngine final : public Engine<Real>,
     for_each_kernel<<<blocks_for(v.n), kBlock>>>(v, body);
   }
   // The pair passes gather per particle (each pair from both sides): no atomics, and the force
-  // pass's neighbour stash keeps a warp's lanes in step.
+  // pass's neighbour stash keeps a warp's lanes in step. A small system shares each particle's
+  // scan among lanes_for(n) threads (LaneGroup), so that it has threads enough to fill the GPU.
   template <class Pass>
   void pair_sums(const StepView<Real>& v, Pass pass) {
-    for_each(v, pass);
+    switch (lanes_for(v.n)) {
+      case 8:
+        for_each_lanes_kernel<8><<<blocks_for(8 * v.n), kBlock>>>(v, pass);
+        break;
+      case 4:
+        for_each_lanes_kernel<4><<<blocks_for(4 * v.n), kBlock>>>(v, pass);
+        break;
+      case 2:
+        for_each_lanes_kernel<2><<<blocks_for(2 * v.n), kBlock>>>(v, pass);
+        break;
+      default:
+        for_each(v, pass);
+    }
   }
   template <class Pass>
   void pair_forces(const StepView<Real>& v, Pass pass) {
-    for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
+    switch (lanes_for(v.n)) {
+      case 8:
+        for_each_stashed_lanes_kernel<8><<<blocks_for(8 * v.n), kBlock, kStashBytes>>>(v, pass);
+        break;
+      case 4:
+        for_each_stashed_lanes_kernel<4><<<blocks_for(4 * v.n), kBlock, kStashBytes>>>(v, pass);
+        break;
+      case 2:
+        for_each_stashed_lanes_kernel<2><<<blocks_for(2 * v.n), kBlock, kStashBytes>>>(v, pass);
+        break;
+      default:
+        for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
+    }
+  }
+  // Threads per particle in the gather passes: SimulationOptions::lanes_per_particle, or by the
+  // particle count (0: docs/benchmarks.md, 2026-12-04).
+  int lanes_for(int n) const {
+    if (lanes_ > 0) return lanes_;
+    return n <= kEightLanesUpTo ? 8 : n <= kFourLanesUpTo ? 4 : n <= kTwoLanesUpTo ? 2 : 1;
   }
 
   // The wall model's corrector after the sums. The re-sort decision needs the count on the host:
@@ -1525,6 +1595,10 @@ class CudaEngine final : public Engine<Real>,
   std::uint64_t capture_first_step_ = 0, device_base_step_ = ~std::uint64_t(0);
   DeviceBuffer<std::uint64_t> step_base_;
   std::uint64_t graph_steps_ = 0, graph_captures_ = 0;
+  // Threads per particle in the gather passes (0: by the particle count, lanes_for).
+  int lanes_ = 0;
+  // About the particle counts whose threads (one per particle) fill the H200's 132 SMs.
+  static constexpr int kEightLanesUpTo = 32768, kFourLanesUpTo = 100000, kTwoLanesUpTo = 250000;
 };
 
 }  // namespace

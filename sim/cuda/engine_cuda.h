@@ -14,6 +14,7 @@ struct CudaEngineOptions {
   bool profile = false;
   bool frozen_part = true;
   bool graphs = true;
+  int lanes = 0;
 };
 
 template <class Real>

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "mesorock/errors.h"
 #include "sim/init.h"
 #include "sim/simulation.h"
 
@@ -188,6 +189,53 @@ TEST_P(GpuVsCpu, GraphsChangeNoBit) {
       ASSERT_EQ(pa.vy[i], pb.vy[i]) << "walls " << walls << ", particle " << i;
     }
   }
+}
+
+// Several threads per particle in the density and force passes (SimulationOptions::
+// lanes_per_particle) split each scan and add the lanes' sums: the same rho, phi and forces as one
+// thread per particle up to the order of the sums, and the same wall corrections over 20 steps.
+TEST_P(GpuVsCpu, LanesChangeOnlyTheOrderOfSums) {
+  Case c = mixed_case(GetParam(), ms::ConservativeKind::MDPD, ms::DensityKernelKind::Warren);
+  c.model.wall_model.enabled = true;
+  const double tol = GetParam() == ms::Precision::Single ? 1e-5 : 1e-12;
+  ms::SimulationOptions one;
+  one.backend = ms::BackendKind::CUDA;
+  one.lanes_per_particle = 1;
+  auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01, one);
+  const auto ra = a->densities(), pa = a->boundary_volume_fractions();
+  const auto fa = a->forces();
+  const double scale = rms(fa);
+  for (int lanes : {2, 4, 8}) {
+    ms::SimulationOptions o = one;
+    o.lanes_per_particle = lanes;
+    auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, o);
+    const auto rb = b->densities(), pb = b->boundary_volume_fractions();
+    const auto fb = b->forces();
+    ASSERT_EQ(ra.size(), rb.size());
+    for (size_t i = 0; i < ra.size(); ++i) {
+      ASSERT_NEAR(ra[i], rb[i], tol * (1 + ra[i])) << lanes << " lanes, particle " << i;
+      ASSERT_NEAR(pa[i], pb[i], tol) << lanes << " lanes, particle " << i;
+    }
+    double worst = 0;
+    for (int d = 0; d < 3; ++d)
+      for (size_t i = 0; i < fa[d].size(); ++i)
+        worst = std::max(worst, std::abs(fa[d][i] - fb[d][i]) / (std::abs(fa[d][i]) + scale));
+    EXPECT_LT(worst, 10 * tol) << lanes << " lanes";
+  }
+  ms::SimulationOptions four = one;
+  four.lanes_per_particle = 4;
+  auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, four);
+  a->run(20);
+  b->run(20);
+  EXPECT_EQ(a->wall_corrections(), b->wall_corrections());
+  const auto xa = a->particles(), xb = b->particles();
+  double worst_x = 0;
+  for (size_t i = 0; i < xa.size(); ++i)
+    worst_x = std::max({worst_x, std::abs(xa.x[i] - xb.x[i]), std::abs(xa.z[i] - xb.z[i])});
+  EXPECT_LT(worst_x, 1e-4);
+  ms::SimulationOptions bad = one;
+  bad.lanes_per_particle = 3;
+  EXPECT_THROW(ms::make_simulation(c.model, c.box, c.particles, 0.01, bad), mesorock::ConfigError);
 }
 
 INSTANTIATE_TEST_SUITE_P(Precisions, GpuVsCpu,
