@@ -162,8 +162,24 @@ TileSet build_tile_set(const TileKey& key, const TileBuildOptions& o) {
   }
   auto simulation = sim::make_simulation(model, box, p, o.dt / 5, o.sim);
   set.build.backend = simulation->backend_name();
+  // Where the build stands: steps done of all it will run, the time so far and the time left at
+  // the rate so far (a relax step costs what any other step costs).
+  const std::uint64_t total_steps = o.relax_steps + o.equilibration_steps +
+                                    static_cast<std::uint64_t>(cuts - 1) * o.decorrelation_steps;
+  auto standing = [&] {
+    const double done = static_cast<double>(simulation->step());
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::ostringstream s;
+    s.precision(3);
+    s << "step " << simulation->step() << " of " << total_steps << ", " << seconds << " s";
+    if (done > 0 && done < static_cast<double>(total_steps))
+      s << ", ETA " << seconds * (static_cast<double>(total_steps) - done) / done << " s";
+    return s.str();
+  };
   simulation->run(o.relax_steps);
   simulation->set_dt(o.dt);
+  say(o, "  relaxed (" + standing() + ")");
   // Temperature samples: the second half of the equilibration and every decorrelation span.
   std::vector<double> temperatures;
   const std::uint64_t first_half = o.equilibration_steps / 2;
@@ -178,6 +194,7 @@ TileSet build_tile_set(const TileKey& key, const TileBuildOptions& o) {
     }
   };
   sample(o.equilibration_steps - first_half);
+  say(o, "  equilibrated (" + standing() + ")");
   for (int c = 0; c < cuts; ++c) {
     if (c > 0) sample(o.decorrelation_steps);
     const sim::ParticleSet snapshot = simulation->particles();
@@ -189,8 +206,8 @@ TileSet build_tile_set(const TileKey& key, const TileBuildOptions& o) {
           key.edge[static_cast<std::size_t>(a)];
     cut_snapshot(snapshot, box, key, n, shift, set);
     if (cuts > 1 && ((c + 1) % std::max(1, cuts / 10) == 0 || c + 1 == cuts)) {
-      say(o, "  cut " + std::to_string(c + 1) + " of " + std::to_string(cuts) + " (step " +
-                 std::to_string(simulation->step()) + ")");
+      say(o, "  cut " + std::to_string(c + 1) + " of " + std::to_string(cuts) + " (" + standing() +
+                 ")");
     }
   }
   block_mean(temperatures, &set.stats.temperature, &set.stats.temperature_error);

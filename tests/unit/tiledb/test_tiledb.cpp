@@ -8,6 +8,8 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "mesorock/errors.h"
 #include "support/test_support.h"
@@ -135,7 +137,18 @@ TEST(TileBuild, AnisotropicFluidTilesAndSeveralCuts) {
   o.decorrelation_steps = 50;
   o.seed = 4;
   o.sim.threads = 1;  // a small box: one thread is faster (same result)
+  std::vector<std::string> lines;
+  o.progress = [&](const std::string& line) { lines.push_back(line); };
   const TileSet s = build_tile_set(key, o);
+  // Progress names the step of all the build runs, with the time left while there is some:
+  // 200 relax + 600 equilibration + 6 x 50 between the 7 cuts = 1,100 steps.
+  ASSERT_GE(lines.size(), 4u);
+  EXPECT_NE(lines[1].find("relaxed (step 200 of 1100, "), std::string::npos) << lines[1];
+  EXPECT_NE(lines[1].find("ETA"), std::string::npos) << lines[1];
+  EXPECT_NE(lines[2].find("equilibrated (step 800 of 1100, "), std::string::npos) << lines[2];
+  EXPECT_NE(lines[lines.size() - 2].find("cut 7 of 7 (step 1100 of 1100, "), std::string::npos)
+      << lines[lines.size() - 2];
+  o.progress = nullptr;
   EXPECT_EQ(s.build.tiles_per_box, (std::array<int, 3>{5, 4, 3}));
   EXPECT_EQ(s.build.cuts, 7);
   EXPECT_EQ(s.tiles(), 420u);
