@@ -623,6 +623,8 @@ class CudaEngine final : public Engine<Real>,
     if (watchdog_event_) cudaEventDestroy(watchdog_event_);
     for (CapturedSteps& g : graphs_kept_)
       if (g.exec) cudaGraphExecDestroy(g.exec);
+    for (cudaEvent_t e : launch_done_)
+      if (e) cudaEventDestroy(e);
   }
 
   const char* name() const override { return "cuda"; }
@@ -1432,6 +1434,7 @@ class CudaEngine final : public Engine<Real>,
     std::vector<std::uintptr_t> key = graph_state_key();
     auto g = std::find_if(graphs_kept_.begin(), graphs_kept_.end(),
                           [&](const CapturedSteps& c) { return c.steps == steps; });
+    wait_for_a_free_launch_slot();
     if (g != graphs_kept_.end() && g->key == key) {
       if (device_base_step_ != step_) set_device_base(step_);
       check(cudaGraphLaunch(g->exec, cudaStreamPerThread), "graph launch");
@@ -1447,6 +1450,8 @@ class CudaEngine final : public Engine<Real>,
       capture_graph(*g);  // and runs it
       g->key = std::move(key);
     }
+    check(cudaEventRecord(launch_done_[launch_slot_], cudaStreamPerThread), "graph event");
+    launch_slot_ = (launch_slot_ + 1) % kLaunchesInFlight;
     device_base_step_ = step_;
     graph_steps_ += steps;
     if (this->watchdog_.enabled) {
@@ -1486,6 +1491,18 @@ class CudaEngine final : public Engine<Real>,
     set_device_base(capture_first_step_);
     check(cudaGraphLaunch(g.exec, cudaStreamPerThread), "graph launch");
     ++graph_captures_;
+  }
+
+  // At most kLaunchesInFlight graphs queued: a thread that is ahead sleeps on the oldest one's
+  // event (blocking sync) instead of spinning on a full launch queue. Why: 64 ensemble members
+  // on 16 cores, with nothing to wait on (the watchdog off), ran at half the speed of the same
+  // run whose watchdog polls made them wait (docs/benchmarks.md).
+  void wait_for_a_free_launch_slot() {
+    if (!launch_done_[0])
+      for (cudaEvent_t& e : launch_done_)
+        check(cudaEventCreateWithFlags(&e, cudaEventDisableTiming | cudaEventBlockingSync),
+              "cudaEventCreate");
+    check(cudaEventSynchronize(launch_done_[launch_slot_]), "graph wait");
   }
 
   void release_graph(typename std::vector<CapturedSteps>::iterator g) {
@@ -1595,6 +1612,9 @@ class CudaEngine final : public Engine<Real>,
   std::uint64_t capture_first_step_ = 0, device_base_step_ = ~std::uint64_t(0);
   DeviceBuffer<std::uint64_t> step_base_;
   std::uint64_t graph_steps_ = 0, graph_captures_ = 0;
+  static constexpr int kLaunchesInFlight = 3;
+  cudaEvent_t launch_done_[kLaunchesInFlight] = {};
+  int launch_slot_ = 0;
   // Threads per particle in the gather passes (0: by the particle count, lanes_for).
   int lanes_ = 0;
   // About the particle counts whose threads (one per particle) fill the H200's 132 SMs.
