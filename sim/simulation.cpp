@@ -200,13 +200,8 @@ template <class Real>
 std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& opt) {
   if (opt.backend == BackendKind::CPU) return make_cpu_engine<Real>(model, opt.threads);
 #if defined(MESOROCK_HAVE_CUDA)
-  CudaEngineOptions cuda;
-  cuda.device = opt.device;
-  cuda.profile = opt.profile;
-  cuda.frozen_part = opt.frozen_part;
-  cuda.graphs = opt.graphs;
-  cuda.lanes = opt.lanes_per_particle;
-  return make_cuda_engine<Real>(model, cuda);
+  return make_cuda_engine<Real>(model, CudaEngineOptions{opt.device, opt.profile, opt.frozen_part,
+                                                         opt.graphs, opt.lanes_per_particle});
 #else
   throw DeviceError(cuda_unavailable_reason());
 #endif

@@ -56,6 +56,26 @@ double rms(const std::array<std::vector<double>, 3>& f) {
   return std::sqrt(s / (3.0 * f[0].size()));
 }
 
+// The largest force difference, relative to |f| plus the rms force of fa.
+double worst_force_difference(const std::array<std::vector<double>, 3>& fa,
+                              const std::array<std::vector<double>, 3>& fb) {
+  const double scale = rms(fa);
+  double worst = 0;
+  for (int d = 0; d < 3; ++d)
+    for (size_t i = 0; i < fa[d].size(); ++i)
+      worst = std::max(worst, std::abs(fa[d][i] - fb[d][i]) / (std::abs(fa[d][i]) + scale));
+  return worst;
+}
+
+// The largest position difference between two runs of the same particles.
+double worst_position_difference(const ms::ParticleSet& a, const ms::ParticleSet& b) {
+  double worst = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    worst = std::max(
+        {worst, std::abs(a.x[i] - b.x[i]), std::abs(a.y[i] - b.y[i]), std::abs(a.z[i] - b.z[i])});
+  return worst;
+}
+
 TEST_P(GpuVsCpu, ForcesAgreeOnTheSameConfiguration) {
   for (auto kind : {ms::ConservativeKind::DPD, ms::ConservativeKind::MDPD}) {
     for (auto kernel : {ms::DensityKernelKind::Warren, ms::DensityKernelKind::Lucy}) {
@@ -64,13 +84,8 @@ TEST_P(GpuVsCpu, ForcesAgreeOnTheSameConfiguration) {
       gpu.backend = ms::BackendKind::CUDA;
       auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01);
       auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, gpu);
-      const auto fa = a->forces(), fb = b->forces();
-      const double scale = rms(fa);
-      double worst = 0;
-      for (int d = 0; d < 3; ++d)
-        for (size_t i = 0; i < fa[d].size(); ++i)
-          worst = std::max(worst, std::abs(fa[d][i] - fb[d][i]) / (std::abs(fa[d][i]) + scale));
-      EXPECT_LT(worst, 1e-5) << ms::to_string(kind) << "/" << ms::to_string(kernel);
+      EXPECT_LT(worst_force_difference(a->forces(), b->forces()), 1e-5)
+          << ms::to_string(kind) << "/" << ms::to_string(kernel);
       const auto ra = a->densities(), rb = b->densities();
       for (size_t i = 0; i < ra.size(); ++i) ASSERT_NEAR(ra[i], rb[i], 1e-5 * (1 + ra[i]));
     }
@@ -110,22 +125,11 @@ TEST_P(GpuVsCpu, WallModelAgrees) {
   const auto phi_a = a->boundary_volume_fractions(), phi_b = b->boundary_volume_fractions();
   ASSERT_EQ(phi_a.size(), phi_b.size());
   for (size_t i = 0; i < phi_a.size(); ++i) ASSERT_NEAR(phi_a[i], phi_b[i], 1e-5);
-  const auto fa = a->forces(), fb = b->forces();
-  const double scale = rms(fa);
-  double worst = 0;
-  for (int d = 0; d < 3; ++d)
-    for (size_t i = 0; i < fa[d].size(); ++i)
-      worst = std::max(worst, std::abs(fa[d][i] - fb[d][i]) / (std::abs(fa[d][i]) + scale));
-  EXPECT_LT(worst, 1e-5);
+  EXPECT_LT(worst_force_difference(a->forces(), b->forces()), 1e-5);
   a->run(20);
   b->run(20);
   EXPECT_EQ(a->wall_corrections(), b->wall_corrections());
-  const auto pa = a->particles(), pb = b->particles();
-  double worst_x = 0;
-  for (size_t i = 0; i < pa.size(); ++i)
-    worst_x = std::max({worst_x, std::abs(pa.x[i] - pb.x[i]), std::abs(pa.y[i] - pb.y[i]),
-                        std::abs(pa.z[i] - pb.z[i])});
-  EXPECT_LT(worst_x, 1e-4);
+  EXPECT_LT(worst_position_difference(a->particles(), b->particles()), 1e-4);
 }
 
 // The GPU corrects penetrations before the sort, finding the walls in the frozen part alone,
@@ -204,23 +208,17 @@ TEST_P(GpuVsCpu, LanesChangeOnlyTheOrderOfSums) {
   auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01, one);
   const auto ra = a->densities(), pa = a->boundary_volume_fractions();
   const auto fa = a->forces();
-  const double scale = rms(fa);
   for (int lanes : {2, 4, 8}) {
     ms::SimulationOptions o = one;
     o.lanes_per_particle = lanes;
     auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, o);
     const auto rb = b->densities(), pb = b->boundary_volume_fractions();
-    const auto fb = b->forces();
     ASSERT_EQ(ra.size(), rb.size());
     for (size_t i = 0; i < ra.size(); ++i) {
       ASSERT_NEAR(ra[i], rb[i], tol * (1 + ra[i])) << lanes << " lanes, particle " << i;
       ASSERT_NEAR(pa[i], pb[i], tol) << lanes << " lanes, particle " << i;
     }
-    double worst = 0;
-    for (int d = 0; d < 3; ++d)
-      for (size_t i = 0; i < fa[d].size(); ++i)
-        worst = std::max(worst, std::abs(fa[d][i] - fb[d][i]) / (std::abs(fa[d][i]) + scale));
-    EXPECT_LT(worst, 10 * tol) << lanes << " lanes";
+    EXPECT_LT(worst_force_difference(fa, b->forces()), 10 * tol) << lanes << " lanes";
   }
   ms::SimulationOptions four = one;
   four.lanes_per_particle = 4;
@@ -228,11 +226,7 @@ TEST_P(GpuVsCpu, LanesChangeOnlyTheOrderOfSums) {
   a->run(20);
   b->run(20);
   EXPECT_EQ(a->wall_corrections(), b->wall_corrections());
-  const auto xa = a->particles(), xb = b->particles();
-  double worst_x = 0;
-  for (size_t i = 0; i < xa.size(); ++i)
-    worst_x = std::max({worst_x, std::abs(xa.x[i] - xb.x[i]), std::abs(xa.z[i] - xb.z[i])});
-  EXPECT_LT(worst_x, 1e-4);
+  EXPECT_LT(worst_position_difference(a->particles(), b->particles()), 1e-4);
   ms::SimulationOptions bad = one;
   bad.lanes_per_particle = 3;
   EXPECT_THROW(ms::make_simulation(c.model, c.box, c.particles, 0.01, bad), mesorock::ConfigError);
