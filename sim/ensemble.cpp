@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mesorock/errors.h"
+#include "sim/simulation.h"
 
 namespace mesorock::sim {
 
@@ -40,9 +41,7 @@ void run_ensemble(int count, const std::function<void(int member)>& job, int max
 
 int ensemble_lanes(int members, double particles, int requested) {
   if (requested != 0) return requested;
-  // The CUDA engine's one-lane threshold (CudaEngine::lanes_for: kTwoLanesUpTo).
-  constexpr double kFillsTheGpu = 250000;
-  return members > 1 && members * particles > kFillsTheGpu ? 1 : 0;
+  return members > 1 && members * particles > kTwoLanesUpTo ? 1 : 0;
 }
 
 }  // namespace mesorock::sim

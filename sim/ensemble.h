@@ -17,8 +17,8 @@ namespace mesorock::sim {
 void run_ensemble(int count, const std::function<void(int member)>& job, int max_threads = 0);
 
 // SimulationOptions::lanes_per_particle for each of `members` systems of `particles` stepped side
-// by side: `requested` when set; else one thread per particle once the members together have
-// threads enough to fill the GPU (the CUDA engine's own choice looks at one system only: 64
+// by side: `requested` when set; else one thread per particle once the members together are
+// more than kTwoLanesUpTo particles (the CUDA engine's own choice looks at one system only: 64
 // systems of 20,000 ran at 368 MPS/s with 8 lanes each and 426 with one; docs/benchmarks.md).
 int ensemble_lanes(int members, double particles, int requested);
 

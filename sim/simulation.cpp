@@ -37,6 +37,10 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
     throw ConfigError("cells per cutoff must be 1 to 4 (got " +
                       std::to_string(opt.cells_per_cutoff) + ")");
   validate_watchdog_options(opt.watchdog);
+  const int lanes = opt.lanes_per_particle;
+  if (lanes != 0 && lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8)
+    throw ConfigError("lanes per particle must be 0 (by the particle count), 1, 2, 4 or 8 (got " +
+                      std::to_string(lanes) + ")");
   if (opt.reorder_every < 1 || opt.reorder_every > 1000)
     throw ConfigError("reorder interval must be 1 to 1000 steps (got " +
                       std::to_string(opt.reorder_every) + ")");

@@ -22,6 +22,11 @@ inline const char* to_string(BackendKind b) {
   return b == BackendKind::CPU ? "cpu" : "cuda";
 }
 
+// lanes_per_particle = 0 takes 8 lanes up to kEightLanesUpTo particles, 4 up to kFourLanesUpTo,
+// 2 up to kTwoLanesUpTo and 1 above: about where one thread per particle fills the H200's 132
+// SMs (docs/benchmarks.md, 2026-12-04). sim/ensemble.h counts the members together.
+inline constexpr int kEightLanesUpTo = 32768, kFourLanesUpTo = 100000, kTwoLanesUpTo = 250000;
+
 struct SimulationOptions {
   BackendKind backend = BackendKind::CPU;
   int threads = 0;       // CPU backend: OpenMP threads; <= 0 means OpenMP's default

@@ -115,26 +115,21 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
                      size_t k, const sim::ParticleSet& from,
                      const sim::SimulationOptions& sim_options, bool phases,
                      sim::ParticleSet* final_state) {
-  const std::vector<double>& forces = plan.forces;
-  const double volume = plan.volume;
-  const sim::BinGrid& whole = plan.whole;
-  const size_t axis = plan.axis;
-  const std::uint64_t least_blocks = plan.least_blocks;
   phases = phases && o.meter;
   SweepPoint p;
-  p.force = forces[k];
+  p.force = plan.forces[k];
   p.gradient = o.fluid_density * p.force;
   sim::Model model = sample.model;
   for (int t = 0; t < model.ntypes(); ++t)
     if ((o.driven_types >> t) & 1u) {
       model.types[static_cast<size_t>(t)].body_force = {0, 0, 0};
-      model.types[static_cast<size_t>(t)].body_force[axis] = p.force;
+      model.types[static_cast<size_t>(t)].body_force[plan.axis] = p.force;
     }
   model.seed = sample.model.seed + k;  // independent thermal noise at each point
   const auto t_point = std::chrono::steady_clock::now();
   auto sim = sim::make_simulation(model, sample.box, from, o.dt, sim_options);
-  const std::string label = "point " + std::to_string(k + 1) + "/" + std::to_string(forces.size()) +
-                            " g = " + fmt(p.force, 3);
+  const std::string label = "point " + std::to_string(k + 1) + "/" +
+                            std::to_string(plan.forces.size()) + " g = " + fmt(p.force, 3);
   if (phases) o.meter->set_phase(label + ": warm-up");
   sim->run(o.warmup_steps);
   p.steps = o.warmup_steps;
@@ -145,7 +140,7 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
     double sum = 0;
     for (std::uint64_t s = 0; s < per_block; ++s) {
       sim->run(o.sample_every);
-      sum += sim->bin_sums(whole)[sim::kBinVx + axis] / volume;
+      sum += sim->bin_sums(plan.whole)[sim::kBinVx + plan.axis] / plan.volume;
     }
     J.push_back(sum / static_cast<double>(per_block));
     p.steps += o.block_steps;
@@ -174,7 +169,7 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
     if (p.steps + o.block_steps > o.max_steps) break;
     if (o.meter) {  // (thread-safe: ProgressMeter)
       // Past the least plan (warm-up + 2 windows + measurement): one more block to expect.
-      if (J.size() >= least_blocks)
+      if (J.size() >= plan.least_blocks)
         o.meter->add_total(static_cast<double>(sample.particles.size()) *
                            static_cast<double>(o.block_steps));
       if (phases)
@@ -209,10 +204,10 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
 
 std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions& o) {
   check_options(sample, o);
-  std::vector<double> forces = o.forces;
-  std::sort(forces.begin(), forces.end());
   SweepPlan plan;
-  plan.forces = forces;
+  plan.forces = o.forces;
+  std::sort(plan.forces.begin(), plan.forces.end());
+  const std::vector<double>& forces = plan.forces;
   plan.volume = sample.box.volume();
   plan.whole.lo = sample.box.lo;
   plan.whole.hi = sample.box.hi;

@@ -608,9 +608,6 @@ class CudaEngine final : public Engine<Real>,
         frozen_part_(o.frozen_part),
         graphs_(o.graphs),
         lanes_(o.lanes) {
-    if (lanes_ != 0 && lanes_ != 1 && lanes_ != 2 && lanes_ != 4 && lanes_ != 8)
-      throw ConfigError("lanes per particle must be 0 (by the particle count), 1, 2, 4 or 8 (got " +
-                        std::to_string(lanes_) + ")");
     check(cudaSetDevice(device_), "cudaSetDevice");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
@@ -971,41 +968,46 @@ class CudaEngine final : public Engine<Real>,
   // scan among lanes_for(n) threads (LaneGroup), so that it has threads enough to fill the GPU.
   template <class Pass>
   void pair_sums(const StepView<Real>& v, Pass pass) {
-    switch (lanes_for(v.n)) {
-      case 8:
-        for_each_lanes_kernel<8><<<blocks_for(8 * v.n), kBlock>>>(v, pass);
-        break;
-      case 4:
-        for_each_lanes_kernel<4><<<blocks_for(4 * v.n), kBlock>>>(v, pass);
-        break;
-      case 2:
-        for_each_lanes_kernel<2><<<blocks_for(2 * v.n), kBlock>>>(v, pass);
-        break;
-      default:
+    with_lanes(v.n, [&](auto lanes) {
+      constexpr int L = decltype(lanes)::value;
+      if constexpr (L == 1)
         for_each(v, pass);
-    }
+      else
+        for_each_lanes_kernel<L><<<blocks_for(L * v.n), kBlock>>>(v, pass);
+    });
   }
   template <class Pass>
   void pair_forces(const StepView<Real>& v, Pass pass) {
-    switch (lanes_for(v.n)) {
+    with_lanes(v.n, [&](auto lanes) {
+      constexpr int L = decltype(lanes)::value;
+      if constexpr (L == 1)
+        for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
+      else
+        for_each_stashed_lanes_kernel<L><<<blocks_for(L * v.n), kBlock, kStashBytes>>>(v, pass);
+    });
+  }
+  // Calls launch(L) with L, the threads per particle of the gather passes, as a compile-time
+  // constant: SimulationOptions::lanes_per_particle, or by the particle count (sim/simulation.h).
+  template <class Launch>
+  void with_lanes(int n, Launch&& launch) const {
+    const int lanes = lanes_ > 0             ? lanes_
+                      : n <= kEightLanesUpTo ? 8
+                      : n <= kFourLanesUpTo  ? 4
+                      : n <= kTwoLanesUpTo   ? 2
+                                             : 1;
+    switch (lanes) {
       case 8:
-        for_each_stashed_lanes_kernel<8><<<blocks_for(8 * v.n), kBlock, kStashBytes>>>(v, pass);
+        launch(std::integral_constant<int, 8>{});
         break;
       case 4:
-        for_each_stashed_lanes_kernel<4><<<blocks_for(4 * v.n), kBlock, kStashBytes>>>(v, pass);
+        launch(std::integral_constant<int, 4>{});
         break;
       case 2:
-        for_each_stashed_lanes_kernel<2><<<blocks_for(2 * v.n), kBlock, kStashBytes>>>(v, pass);
+        launch(std::integral_constant<int, 2>{});
         break;
       default:
-        for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
+        launch(std::integral_constant<int, 1>{});
     }
-  }
-  // Threads per particle in the gather passes: SimulationOptions::lanes_per_particle, or by the
-  // particle count (0: docs/benchmarks.md, 2026-12-04).
-  int lanes_for(int n) const {
-    if (lanes_ > 0) return lanes_;
-    return n <= kEightLanesUpTo ? 8 : n <= kFourLanesUpTo ? 4 : n <= kTwoLanesUpTo ? 2 : 1;
   }
 
   // The wall model's corrector after the sums. The re-sort decision needs the count on the host:
@@ -1416,18 +1418,12 @@ class CudaEngine final : public Engine<Real>,
     return k;
   }
 
-  // The host's per-step counters, which a replay advances as the captured steps did.
-  struct StepCounters {
-    std::uint64_t early = 0, late = 0, full_sorts = 0, mobile_sorts = 0;
-  };
-  StepCounters counters() const { return {early_steps_, late_steps_, full_sorts_, mobile_sorts_}; }
-
-  // A captured run of steps: its length, what it baked in, and the host counters it advances.
+  // A captured run of steps: its length and what it baked in. (The profiler's step counters are
+  // not advanced by replays: profiling steps without graphs.)
   struct CapturedSteps {
     std::uint64_t steps = 0;
     std::vector<std::uintptr_t> key;
     cudaGraphExec_t exec = nullptr;
-    StepCounters delta;
   };
 
   void run_graph(std::uint64_t steps) {
@@ -1439,12 +1435,10 @@ class CudaEngine final : public Engine<Real>,
       if (device_base_step_ != step_) set_device_base(step_);
       check(cudaGraphLaunch(g->exec, cudaStreamPerThread), "graph launch");
       step_ += steps;
-      early_steps_ += g->delta.early, late_steps_ += g->delta.late;
-      full_sorts_ += g->delta.full_sorts, mobile_sorts_ += g->delta.mobile_sorts;
     } else {
       if (g == graphs_kept_.end()) {
         if (graphs_kept_.size() >= kGraphsKept) release_graph(graphs_kept_.begin());
-        graphs_kept_.push_back({steps, {}, nullptr, {}});
+        graphs_kept_.push_back({steps, {}, nullptr});
         g = graphs_kept_.end() - 1;
       }
       capture_graph(*g);  // and runs it
@@ -1465,7 +1459,6 @@ class CudaEngine final : public Engine<Real>,
   void capture_graph(CapturedSteps& g) {
     if (g.exec) check(cudaGraphExecDestroy(g.exec), "graph release");
     g.exec = nullptr;
-    const StepCounters before = counters();
     capture_first_step_ = step_;
     cudaGraph_t graph = nullptr;
     check(cudaStreamBeginCapture(cudaStreamPerThread, cudaStreamCaptureModeThreadLocal),
@@ -1485,12 +1478,8 @@ class CudaEngine final : public Engine<Real>,
     const cudaError_t e = cudaGraphInstantiate(&g.exec, graph, 0);
     cudaGraphDestroy(graph);
     check(e, "graph instantiation");
-    const StepCounters after = counters();
-    g.delta = {after.early - before.early, after.late - before.late,
-               after.full_sorts - before.full_sorts, after.mobile_sorts - before.mobile_sorts};
     set_device_base(capture_first_step_);
     check(cudaGraphLaunch(g.exec, cudaStreamPerThread), "graph launch");
-    ++graph_captures_;
   }
 
   // At most kLaunchesInFlight graphs queued: a thread that is ahead sleeps on the oldest one's
@@ -1601,8 +1590,8 @@ class CudaEngine final : public Engine<Real>,
   cudaEvent_t watchdog_event_ = nullptr;
   bool watchdog_pending_ = false;
   int watchdog_since_poll_ = 0;
-  // CUDA graphs: on unless switched off; the executable graph, what it baked in, its first step
-  // and the step the device's step base holds; host counters a replay advances.
+  // CUDA graphs: on unless switched off; the captured runs, the first step of the one being
+  // captured and the step the device's step base holds; launches in flight.
   bool graphs_ = true;
   bool capturing_ = false;
   bool defer_poll_ = false;  // advance() polls the watchdog once at its end
@@ -1611,14 +1600,12 @@ class CudaEngine final : public Engine<Real>,
   std::vector<CapturedSteps> graphs_kept_;
   std::uint64_t capture_first_step_ = 0, device_base_step_ = ~std::uint64_t(0);
   DeviceBuffer<std::uint64_t> step_base_;
-  std::uint64_t graph_steps_ = 0, graph_captures_ = 0;
+  std::uint64_t graph_steps_ = 0;
   static constexpr int kLaunchesInFlight = 3;
   cudaEvent_t launch_done_[kLaunchesInFlight] = {};
   int launch_slot_ = 0;
-  // Threads per particle in the gather passes (0: by the particle count, lanes_for).
+  // Threads per particle in the gather passes (0: by the particle count, with_lanes).
   int lanes_ = 0;
-  // About the particle counts whose threads (one per particle) fill the H200's 132 SMs.
-  static constexpr int kEightLanesUpTo = 32768, kFourLanesUpTo = 100000, kTwoLanesUpTo = 250000;
 };
 
 }  // namespace

@@ -121,3 +121,17 @@ TEST(RunEnsemble, ManySmallSystemsTakeOneLaneEach) {
 }
 
 }  // namespace
+
+namespace {
+
+// lanes_per_particle is checked for every backend, before anything is built.
+TEST(RunEnsemble, LanesPerParticleOtherThan0124Or8IsRefused) {
+  const Member m = member(0);
+  ms::SimulationOptions o;
+  o.lanes_per_particle = 3;
+  EXPECT_THROW(ms::make_simulation(m.model, m.box, m.particles, 0.01, o), mesorock::ConfigError);
+  o.lanes_per_particle = 4;  // the CPU has no lanes: accepted and ignored
+  EXPECT_NO_THROW(ms::make_simulation(m.model, m.box, m.particles, 0.01, o));
+}
+
+}  // namespace
