@@ -965,7 +965,7 @@ class CudaEngine final : public Engine<Real>,
   }
   // The pair passes gather per particle (each pair from both sides): no atomics, and the force
   // pass's neighbour stash keeps a warp's lanes in step. A small system shares each particle's
-  // scan among lanes_for(n) threads (LaneGroup), so that it has threads enough to fill the GPU.
+  // scan among with_lanes(n) threads (LaneGroup), so that it has threads enough to fill the GPU.
   template <class Pass>
   void pair_sums(const StepView<Real>& v, Pass pass) {
     with_lanes(v.n, [&](auto lanes) {
