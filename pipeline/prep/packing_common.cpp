@@ -59,9 +59,21 @@ void TileGenerationArgs::add_to(CLI::App* app, const std::string& prefix) {
   app->add_option(p + "decorrelate-steps", decorrelate, "Tiles: steps between cuts (default 500)");
   app->add_option(p + "dt", dt, "Tiles: time step of the equilibration (default 0.01)");
   app->add_option(p + "seed", seed, "Tiles: seed of the tile generation (default 1)");
+  app->add_option(p + "backend", backend,
+                  "Tiles: solver backend, auto (the GPU when present), cpu or cuda (default auto)")
+      ->check(CLI::IsMember({"auto", "cpu", "cuda"}));
   app->add_option("--threads", threads,
                   "CPU threads of the solver and the packing (default: all cores)")
       ->check(CLI::NonNegativeNumber);
+}
+
+sim::BackendKind TileGenerationArgs::resolved_backend() const {
+  if (backend == "cpu") return sim::BackendKind::CPU;
+  if (backend == "cuda") return sim::BackendKind::CUDA;
+  if (backend != "auto") throw ConfigError("tiles: backend must be auto, cpu or cuda (got '" + backend + "')");
+  // Asked once: the answer does not change while the process runs.
+  static const bool device = sim::cuda_unavailable_reason().empty();
+  return device ? sim::BackendKind::CUDA : sim::BackendKind::CPU;
 }
 
 tiledb::TileBuildOptions TileGenerationArgs::options(const std::string& provenance_json) const {
@@ -74,6 +86,7 @@ tiledb::TileBuildOptions TileGenerationArgs::options(const std::string& provenan
   o.dt = dt;
   o.seed = seed;
   o.sim.threads = threads;
+  o.sim.backend = resolved_backend();
   o.provenance_json = provenance_json;
   return o;
 }
@@ -92,7 +105,7 @@ std::string tile_cache_key(const tiledb::TileKey& key, const TileGenerationArgs&
     << n(key.gamma) << "|kBT " << n(key.kBT) << "|" << sim::to_string(key.density_kernel)
     << "|variants " << g.variants << "|box " << n(g.box_edge) << "|relax " << g.relax
     << "|equilibrate " << g.equilibrate << "|decorrelate " << g.decorrelate << "|dt " << n(g.dt)
-    << "|seed " << g.seed;
+    << "|seed " << g.seed << "|backend " << sim::to_string(g.resolved_backend());
   return s.str();
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "tiledb/database.h"
+#include "sim/simulation.h"
 #include "tiledb/generate.h"
 
 namespace mesorock::pipeline::prep {
@@ -37,6 +38,10 @@ struct TileGenerationArgs {
   double dt = 0.01;
   std::uint64_t seed = 1;
   int threads = 0;
+  // The solver of the build: "auto" (the GPU when this build has CUDA and a device, else the
+  // CPU), "cpu" or "cuda". Tiles built on either are the same physics but differ at round-off.
+  std::string backend = "auto";
+  sim::BackendKind resolved_backend() const;
   // Options --variants, --box-edge, --relax-steps, ... with `prefix` after the dashes ("tile-"
   // where the command has options of its own by those names), and --threads.
   void add_to(CLI::App* app, const std::string& prefix = "");
@@ -45,7 +50,8 @@ struct TileGenerationArgs {
 
 // The shared tile cache (docs/packing.md, "Tile cache"): one tile database per set in
 // `cache_dir`, named by a hash of everything that decides its tiles (the key, the generation
-// options but the thread count, which changes no tile, and the mesorock version).
+// options but the thread count, which changes no tile, the backend, which changes them at
+// round-off, and the mesorock version).
 std::string tile_cache_key(const tiledb::TileKey& key, const TileGenerationArgs& generation);
 std::filesystem::path tile_cache_file(const std::filesystem::path& cache_dir,
                                       const tiledb::TileKey& key,
