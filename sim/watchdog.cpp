@@ -17,6 +17,12 @@ std::string number(double v) {
   return buf;
 }
 
+// "(x, y, z)": where the particle was after the failing step.
+std::string where(const WatchdogHit& hit) {
+  return "(" + number(hit.position[0]) + ", " + number(hit.position[1]) + ", " +
+         number(hit.position[2]) + ")";
+}
+
 }  // namespace
 
 void validate_watchdog_options(const WatchdogOptions& o) {
@@ -53,12 +59,12 @@ std::string watchdog_message(const WatchdogHit& hit, const WatchdogOptions& o, d
         return s + "velocity is not finite (" + number(hit.value) + ")" + advice;
       return s + "velocity " + number(hit.value) + " exceeds the runaway limit " +
              number(watchdog_speed_limit(o, dt)) + " (" + number(o.runaway_displacement) +
-             " rc per step at dt = " + number(dt) + "); dt may be too large for these forces";
+             " rc per step at dt = " + number(dt) + ") at " + where(hit) +
+             "; dt may be too large for these forces";
     case kWatchdogPosition:
       return s + "position is not finite (" + number(hit.value) + ")" + advice;
     case kWatchdogSolid:
-      return s + "fluid leaked into the solid: at (" + number(hit.position[0]) + ", " +
-             number(hit.position[1]) + ", " + number(hit.position[2]) + "), " + number(hit.value) +
+      return s + "fluid leaked into the solid: at " + where(hit) + ", " + number(hit.value) +
              " rc inside a solid voxel, deeper than the stop depth (the solid grid's bounce "
              "did not hold it back, or it is off)";
     default:
