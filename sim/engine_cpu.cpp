@@ -45,6 +45,7 @@ class CellSorter {
     permute(s.type, scratch_int_);
     permute(s.origin, scratch_int_);
     permute(s.id, scratch_id_);
+    if (!s.solid_turned.empty()) permute(s.solid_turned, scratch_flag_);
     if (carry_forces)  // phi is empty without the wall model: a no-op then
       for (auto* a : {&s.fx, &s.fy, &s.fz, &s.rho, &s.bvf}) permute(*a, scratch_real_);
   }
@@ -61,6 +62,7 @@ class CellSorter {
   std::vector<Real> scratch_real_;
   std::vector<std::int32_t> scratch_int_;
   std::vector<std::int64_t> scratch_id_;
+  std::vector<std::uint8_t> scratch_flag_;
 };
 
 template <class Real, class Terms>
@@ -77,6 +79,7 @@ class CpuEngine final : public Engine<Real>,
 
   void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     s_ = &host;
+    host.size_solid_turned();
     this->attach_hooks(hooks);
     ThreadScope scope(threads_);
     this->initial_forces();
@@ -85,6 +88,7 @@ class CpuEngine final : public Engine<Real>,
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>& hooks) override {
     s_ = &host;
+    host.size_solid_turned();
     this->attach_hooks(hooks);
     corrected_ = wall_corrections;
     ThreadScope scope(threads_);
@@ -369,6 +373,7 @@ class CpuEngine final : public Engine<Real>,
       r.f[0] = s.fx[i], r.f[1] = s.fy[i], r.f[2] = s.fz[i];
       r.type = s.type[i];
       r.id = s.id[i];
+      r.solid_turned = s.solid_turned.empty() ? 0 : s.solid_turned[i];
       leavers.push_back(r);
     }
     if (keep_.size() != static_cast<size_t>(n))  // else nothing left and there were no ghosts
@@ -384,7 +389,7 @@ class CpuEngine final : public Engine<Real>,
     HostState<Real>& s = *s_;
     for (const MigrantRecord<Real>& r : in) {
       s.origin.push_back(static_cast<std::int32_t>(s.x.size()));
-      push_particle(r.x, r.v, r.ve, r.f, r.type, r.id);
+      push_particle(r.x, r.v, r.ve, r.f, r.type, r.id, r.solid_turned);
     }
   }
 
@@ -477,8 +482,9 @@ class CpuEngine final : public Engine<Real>,
   }
 
   void push_particle(const Real x[3], const Real v[3], const Real ve[3], const Real f[3],
-                     std::int32_t type, std::int64_t id) {
+                     std::int32_t type, std::int64_t id, std::uint8_t solid_turned = 0) {
     HostState<Real>& s = *s_;
+    if (s.needs_solid_turned()) s.solid_turned.push_back(solid_turned);
     // v~ exists only with a thermostat, phi only with the wall model (HostState).
     if constexpr (Terms::thermostat::enabled)
       s.vex.push_back(ve[0]), s.vey.push_back(ve[1]), s.vez.push_back(ve[2]);

@@ -80,6 +80,12 @@ struct StepView {
   WallModelView<Real> walls;         // read only by the wall-model pass variants
   VirtualWalls<Real> virtual_walls;  // planes that keep some types on one side until a step
   SolidView<Real> solid;             // the solid as voxels (sim/solid_grid.h); often none
+  // With the solid grid's bounce and the wall model both on: 1 for a particle the bounce turned
+  // in this step's drift, else 0 (kick_drift writes it, the wall model's corrector reads it, a
+  // sort moves it). The grid has the last word: a second turn by the corrector would undo the
+  // bounce, and a particle in a pocket it cannot leave then gained speed every step until the
+  // watchdog stopped the run (docs/walls.md, "One turn per step"). Null otherwise.
+  std::uint8_t* solid_turned = nullptr;
   RigidSlabs<Real> slabs;            // pistons moving as rigid bodies (sim/rigid_slabs.h)
 
   Real rd = Real(0.75);
@@ -390,7 +396,7 @@ template <class Real>
 MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real phi,
                                                 Real dv[3], Parts parts = Parts::All) {
   if (v.frozen(i) || v.ghost(i) || v.walls.is_wall(v.type[i]) || v.slabs.is_slab(v.type[i]) ||
-      !(phi > v.walls.phi_c))
+      !(phi > v.walls.phi_c) || (v.solid_turned && v.solid_turned[i]))
     return false;
   Real nx = 0, ny = 0, nz = 0;
   for_each_neighbour(
@@ -726,10 +732,11 @@ MESO_HD MESO_INLINE void apply_virtual_walls(const StepView<Real>& v, int i) {
 // x = x0 + dt v'; if that lands in the solid too (a corner, a thin gap), it stays at x0, which is
 // in the pore. So no particle that starts a step in the pore ends it in the solid, whatever the
 // wall particles around it. One byte is read per particle and step; nothing more unless it hit.
+// Returns whether it turned the particle.
 template <class Real, bool kVelocityEstimate>
-MESO_HD MESO_INLINE void bounce_off_solid(const StepView<Real>& v, int i, Real x0, Real y0,
+MESO_HD MESO_INLINE bool bounce_off_solid(const StepView<Real>& v, int i, Real x0, Real y0,
                                           Real z0) {
-  if (!v.solid.in_solid(v.x[i], v.y[i], v.z[i])) return;
+  if (!v.solid.in_solid(v.x[i], v.y[i], v.z[i])) return false;
   v.vx[i] = -v.vx[i];
   v.vy[i] = -v.vy[i];
   v.vz[i] = -v.vz[i];
@@ -750,6 +757,7 @@ MESO_HD MESO_INLINE void bounce_off_solid(const StepView<Real>& v, int i, Real x
     v.y[i] = y0;
     v.z[i] = z0;
   }
+  return true;
 }
 
 // First half: v~ = v + lambda dt f; v += dt/2 f; x += dt v; boundaries.
@@ -802,8 +810,10 @@ MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
   apply_boundary<Real, kVelocityEstimate>(v, i, v.y, v.vy, v.vey, 1);
   apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
   apply_virtual_walls<Real, kVelocityEstimate>(v, i);
-  if (v.solid.bounce && v.solid.enabled())
-    bounce_off_solid<Real, kVelocityEstimate>(v, i, x0, y0, z0);
+  if (v.solid.bounce && v.solid.enabled()) {
+    const bool turned = bounce_off_solid<Real, kVelocityEstimate>(v, i, x0, y0, z0);
+    if (v.solid_turned) v.solid_turned[i] = turned;
+  }
 }
 
 // Second half: v += dt/2 f(t + dt).

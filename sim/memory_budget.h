@@ -15,13 +15,13 @@ namespace mesorock::sim {
 //     alive while make_simulation builds the state, and outputs (particle files, checkpoints)
 //     take another copy in the original order                     120 B
 //   HostState (x..rho: 13 Real, phi 1 Real, type, origin int32,
-//     id int64)                                                    14 Real + 16 B
+//     id int64, the solid grid's turn flag uint8)                  14 Real + 17 B
 //   the cell sorter (cell_of, dest int; scratch Real, int32,
-//     int64)                                                       1 Real + 20 B
+//     int64, uint8)                                                1 Real + 21 B
 //   the CPU engine's half list (sim/half_list.h: offset and force end, int; at rho = 7 about 15
 //     pairs within rc of 4 B each, doubled for the vectors' growth; a skin of 0.3 rc doubles
 //     the pairs)                                                   128 B
-// = 284 + 15 Real: 404 B in double precision, 344 B in single. The CUDA engine keeps the same
+// = 286 + 15 Real: 406 B in double precision, 346 B in single. The CUDA engine keeps the same
 // host mirror (without the list: the estimate is then on the safe side). Per cell: cell_start and
 // the sorter's fill cursor, 8 B.
 double host_bytes_per_particle(Precision p);
@@ -32,8 +32,8 @@ inline constexpr double kHostBytesPerCell = 8;
 //   the last sort x0 y0 z0, a frozen particle's static rho and phi),
 //   type, origin and their second buffers (int32) 16 B, id and its second buffer (int64) 16 B,
 //   cell, cell_sorted, index, perm (int) 16 B, CUB's radix-sort temporary (~ one key-value
-//   pair) 8 B
-// = 56 + 28 Real: 280 B in double precision, 168 B in single. Per cell: cell_start, 4 B, twice
+//   pair) 8 B, the solid grid's turn flag and its second buffer (uint8) 2 B
+// = 58 + 28 Real: 282 B in double precision, 170 B in single. Per cell: cell_start, 4 B, twice
 // with frozen types (their own part of the cell list); the solid grid: 1 B per voxel.
 double device_bytes_per_particle(Precision p);
 inline constexpr double kDeviceBytesPerCell = 8;

@@ -22,6 +22,8 @@ template <class Real>
 struct HostState {
   std::vector<Real> x, y, z, vx, vy, vz, vex, vey, vez, fx, fy, fz, rho;
   std::vector<Real> bvf;  // boundary volume fraction: empty without the wall model
+  // StepView::solid_turned: sized only with the solid grid's bounce and the wall model both on.
+  std::vector<std::uint8_t> solid_turned;
   std::vector<std::int32_t> type;
   std::vector<std::int64_t> id;
   // Where each stored particle stood in the initial ParticleSet: engines keep particles sorted by
@@ -69,6 +71,13 @@ struct HostState {
     f(type);
     f(id);
     f(origin);
+    if (solid_turned.size() == n) f(solid_turned);
+  }
+
+  // Whether this run needs StepView::solid_turned, and the array sized (zeros) when it does.
+  bool needs_solid_turned() const { return solid.bounce && solid.enabled() && walls.wall_mask != 0; }
+  void size_solid_turned() {
+    if (needs_solid_turned()) solid_turned.assign(x.size(), 0);
   }
 
   // Raw-pointer view of the host arrays for the kernel bodies.
@@ -84,6 +93,7 @@ struct HostState {
     v.fx = fx.data(), v.fy = fy.data(), v.fz = fz.data();
     v.rho = rho.data();
     v.bvf = bvf.empty() ? nullptr : bvf.data();
+    v.solid_turned = solid_turned.empty() ? nullptr : solid_turned.data();
     v.walls = walls;
     v.walls.kappa = kappa.empty() ? nullptr : kappa.data();
     v.type = type.data();

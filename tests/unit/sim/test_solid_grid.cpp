@@ -285,6 +285,61 @@ TEST_P(Solid, TheWatchdogStopsAParticleDeepInTheSolid) {
   }
 }
 
+// One turn per step (StepView::solid_turned). A fluid particle in a pocket of one pore voxel,
+// [1.5, 2)^3, walled in by wall particles on every side but +x, where the solid voxel next to it
+// is empty (a grain interior), pushed towards that voxel by a body force of 40. phi's normal
+// points to +x, away from the walls, while the solid the particle hits is at +x; phi_c = 0.2 so
+// that the corrector fires next to that face (the lattice is too sparse there for 1/2). No
+// conservative force and a thermostat of gamma = 0 (the wall model needs one): nothing damps it.
+// When the bounce and the corrector both turned it in one step, the second turn undid the first
+// and the push added dt g = 0.4 to its speed at every step at the face: 26 after 300 steps (the
+// Berea runaway, docs/walls.md). Turned once per step it reaches 7.3: what is left is the
+// corrector's own gain (about 0.4 every 40 steps, where it turns the particle on some steps and
+// not on others), which a thermostat's dissipation bounds.
+TEST_P(Solid, AParticleInAPocketItCannotLeaveIsTurnedOncePerStep) {
+  Scenario s;
+  s.model.conservative = ms::ConservativeKind::DPD;
+  s.model.thermostat = true;
+  const int fluid = s.model.add_type({"fluid", false, {40.0, 0, 0}});
+  const int wall = s.model.add_type({"wall", true, {0, 0, 0}});
+  s.model.set_pair(fluid, fluid, {0, 0, 0});
+  s.model.set_pair(fluid, wall, {0, 0, 0});
+  s.model.set_pair(wall, wall, {0, 0, 0});
+  s.model.wall_model.enabled = true;
+  s.model.wall_model.penetration_threshold = 0.2;
+  s.box.hi = {4, 4, 4};
+  auto mask = std::make_shared<ms::SolidMask>(empty_mask(8, 8, 8, 0.5));
+  for (auto& b : mask->solid) b = 1;
+  mask->solid[mask->index(3, 3, 3)] = 0;
+  s.model.solid.mask = mask;
+  std::int64_t next = 0;
+  ms::ParticleSet walls;
+  ms::fill_lattice(walls, wall, {0, 0, 0}, {4, 4, 4}, 12, next);
+  for (size_t i = 0; i < walls.size(); ++i) {
+    const bool hollow = walls.x[i] >= 2.0 && walls.x[i] < 2.5;
+    if (!hollow && mask->is_solid(static_cast<int>(walls.x[i] / 0.5),
+                                  static_cast<int>(walls.y[i] / 0.5),
+                                  static_cast<int>(walls.z[i] / 0.5)))
+      s.particles.add(walls.x[i], walls.y[i], walls.z[i], 0, 0, 0, wall, walls.id[i]);
+  }
+  s.particles.add(1.9, 1.74, 1.77, 1.0, 0.1, -0.05, fluid, next);
+  auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
+  double fastest = 0;
+  for (int k = 0; k < 60; ++k) {
+    sim->run(5);
+    const ms::ParticleSet p = sim->particles();
+    const size_t i = p.size() - 1;
+    ASSERT_EQ(p.type[i], fluid);
+    fastest =
+        std::max(fastest, std::sqrt(p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i]));
+  }
+  std::printf("fastest in the pocket: %.3g, corrections %llu\n", fastest,
+              static_cast<unsigned long long>(sim->wall_corrections()));
+  EXPECT_GT(sim->wall_corrections(), 100u) << "the corrector must fire in the pocket";
+  EXPECT_EQ(sim->solid_intrusion().inside, 0u);
+  EXPECT_LT(fastest, 12.0);  // 7.3 turned once per step, 26 turned twice
+}
+
 TEST_P(Solid, ParticlesThatStartInTheSolidAreRefused) {
   Scenario s = fluid_around_a_hollow_grain(true);
   s.particles.add(3.0, 3.0, 3.0, 0, 0, 0, 0, 999999);
