@@ -41,7 +41,8 @@ void run_ensemble(int count, const std::function<void(int member)>& job, int max
 
 int ensemble_lanes(int members, double particles, int requested) {
   if (requested != 0) return requested;
-  return members > 1 && members * particles > kTwoLanesUpTo ? 1 : 0;
+  if (members <= 1 || members * particles <= kTwoLanesUpTo) return 0;  // each chooses itself
+  return particles > kTwoLanesUpTo ? 1 : 2;
 }
 
 }  // namespace mesorock::sim

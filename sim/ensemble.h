@@ -17,9 +17,11 @@ namespace mesorock::sim {
 void run_ensemble(int count, const std::function<void(int member)>& job, int max_threads = 0);
 
 // SimulationOptions::lanes_per_particle for each of `members` systems of `particles` stepped side
-// by side: `requested` when set; else one thread per particle once the members together are
-// more than kTwoLanesUpTo particles (the CUDA engine's own choice looks at one system only: 64
-// systems of 20,000 ran at 368 MPS/s with 8 lanes each and 426 with one; docs/benchmarks.md).
+// by side: `requested` when set; else, once the members together are more than kTwoLanesUpTo
+// particles, two threads per particle (one for members above kTwoLanesUpTo). The CUDA engine's
+// own choice looks at one system only: 64 systems of 20,000 ran at 368 MPS/s with 8 lanes each;
+// with 1, 2 and 4 lanes at 465, 481 and 454 (H200, docs/benchmarks.md). Two lanes shorten each
+// member's chain of small kernels without crowding the device.
 int ensemble_lanes(int members, double particles, int requested);
 
 }  // namespace mesorock::sim

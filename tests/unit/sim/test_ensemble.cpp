@@ -114,7 +114,8 @@ TEST(RunEnsemble, RefusesANegativeCountAndRunsNothingForZero) {
 namespace {
 
 TEST(RunEnsemble, ManySmallSystemsTakeOneLaneEach) {
-  EXPECT_EQ(ms::ensemble_lanes(64, 20000, 0), 1);  // 1.28 M particles together
+  EXPECT_EQ(ms::ensemble_lanes(64, 20000, 0), 2);  // 1.28 M particles together
+  EXPECT_EQ(ms::ensemble_lanes(8, 300000, 0), 1);  // members big enough alone
   EXPECT_EQ(ms::ensemble_lanes(4, 20000, 0), 0);   // too few: each system chooses
   EXPECT_EQ(ms::ensemble_lanes(1, 1e6, 0), 0);     // one system chooses for itself
   EXPECT_EQ(ms::ensemble_lanes(64, 20000, 4), 4);  // asked for
