@@ -340,6 +340,10 @@ class CpuEngine final : public Engine<Real>,
   void watchdog_step() {
     if (this->watchdog_.enabled) watchdog_scan(s_->view(), this->watchdog_);  // throws
   }
+  void kick_and_watchdog() {
+    for_each(s_->view(), KickPass<Real>{});
+    watchdog_step();
+  }
   void finish_steps(std::uint64_t) {}
   void mark(StepPhase) {}
 

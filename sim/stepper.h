@@ -19,6 +19,8 @@
 //                                          finding the walls in the frozen part alone
 //   slab_half_kicks(), slab_forces(kick)   the rigid slabs' reductions and kicks
 //   inject(), watchdog_step()              per-step events, after the second kick
+//   kick_and_watchdog()                    the second kick and the watchdog's check (a step
+//                                          without injection: the GPU fuses them, one launch)
 //   next_step(), finish_steps(steps), mark(phase), poll_setup()
 //
 // A new phase of the step is written here, once. The kernel bodies stay in sim/kernels.h; a
@@ -162,10 +164,15 @@ class Stepper {
       compute_forces();  // a decomposed run's particle count may change here
       b.slab_forces(true);
       b.mark(StepPhase::Kick);
-      b.for_each(b.view(), KickPass<Real>{});
-      if (!b.host_state().injections.empty()) b.inject();
-      b.mark(StepPhase::End);
-      b.watchdog_step();  // throws on a blow-up (the GPU when it polls)
+      if (b.host_state().injections.empty()) {
+        b.kick_and_watchdog();  // throws on a blow-up (the GPU when it polls)
+        b.mark(StepPhase::End);
+      } else {
+        b.for_each(b.view(), KickPass<Real>{});
+        b.inject();
+        b.mark(StepPhase::End);
+        b.watchdog_step();
+      }
     }
     b.finish_steps(steps);
   }

@@ -543,10 +543,13 @@ __global__ void virial_kernel(StepView<Real> v, VirialRegion<Real> region, doubl
 }
 
 // The watchdog's check after a step (sim/watchdog.h); hits go to the record in device memory.
-template <class Real>
+// kKickFirst: the step's second kick first, in the same launch (one kernel fewer per step, which
+// small systems and ensembles feel).
+template <class Real, bool kKickFirst>
 __global__ void watchdog_kernel(StepView<Real> v, Real max_speed2, WatchdogRecord* record) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= v.n) return;
+  if constexpr (kKickFirst) kick(v, i);
   double value = 0;
   const int q = watchdog_check(v, i, max_speed2, value);
   if (q != kWatchdogOk)
@@ -772,8 +775,12 @@ class CudaEngine final : public Engine<Real>,
   // The watchdog: a check kernel per step; the host reads the record every poll_steps steps
   // through pinned memory (reading the copy enqueued at the previous poll, long done by then) and
   // synchronously at the end of run().
-  void watchdog_step() {
-    if (!this->watchdog_.enabled) return;
+  void kick_and_watchdog() { watchdog_step(true); }
+  void watchdog_step(bool kick_first = false) {
+    if (!this->watchdog_.enabled) {
+      if (kick_first) for_each(view(), KickPass<Real>{});
+      return;
+    }
     if (!watchdog_host_) {
       watchdog_record_.upload(std::vector<WatchdogRecord>(1));
       check(cudaMallocHost(&watchdog_host_, sizeof(WatchdogRecord)), "cudaMallocHost");
@@ -784,10 +791,14 @@ class CudaEngine final : public Engine<Real>,
             "cudaEventCreate");
     }
     const double limit = watchdog_speed_limit(this->watchdog_, static_cast<double>(dt_));
-    watchdog_kernel<Real><<<blocks_for(n_), kBlock>>>(view(), static_cast<Real>(limit * limit),
-                                                      watchdog_record_.get());
-    watchdog_resolve_kernel<Real>
-        <<<1, 256>>>(view(), static_cast<Real>(limit * limit), watchdog_record_.get());
+    const Real limit2 = static_cast<Real>(limit * limit);
+    if (kick_first)
+      watchdog_kernel<Real, true>
+          <<<blocks_for(n_), kBlock>>>(view(), limit2, watchdog_record_.get());
+    else
+      watchdog_kernel<Real, false>
+          <<<blocks_for(n_), kBlock>>>(view(), limit2, watchdog_record_.get());
+    watchdog_resolve_kernel<Real><<<1, 256>>>(view(), limit2, watchdog_record_.get());
     if (capturing_) return;  // counted when the graph is launched
     if (++watchdog_since_poll_ >= this->watchdog_.poll_steps) watchdog_poll(false);
   }
