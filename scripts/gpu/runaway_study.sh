@@ -11,7 +11,7 @@ mkdir -p /tmp/rockprep-libs && tar xJf .carry/gpu/rockprep-libs.tar.xz -C /tmp/r
 export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
 B=$PWD/.carry/gpu/bin; R=$PWD/.carry/rock
 N=${N:-24}; STEPS=${STEPS:-4000}; G=${G:-0.04}; PAR=${PAR:-4}
-VARIANTS=${VARIANTS:-"base kappa1 specular nobounce nowalls dt005 double"}
+VARIANTS=${VARIANTS:-"base kappa1 specular dt005 double"}
 t0=$(date +%s)
 timeout 120 $B/rockprep run $R/berea_100_to_300.npz --labels true=pore,false=solid --crop 0:50,0:50,0:50 \
   --spacing 5.345,5.345,5.345 --unit um --layout permeability --out /tmp/base --tile-cache /tmp/tc > /tmp/base.log 2>&1 || { echo prep failed; tail -3 /tmp/base.log; }
