@@ -86,7 +86,7 @@ struct StepView {
   // bounce, and a particle in a pocket it cannot leave then gained speed every step until the
   // watchdog stopped the run (docs/walls.md, "One turn per step"). Null otherwise.
   std::uint8_t* solid_turned = nullptr;
-  RigidSlabs<Real> slabs;            // pistons moving as rigid bodies (sim/rigid_slabs.h)
+  RigidSlabs<Real> slabs;  // pistons moving as rigid bodies (sim/rigid_slabs.h)
 
   Real rd = Real(0.75);
   Real dt = Real(0.01);

@@ -75,7 +75,9 @@ struct HostState {
   }
 
   // Whether this run needs StepView::solid_turned, and the array sized (zeros) when it does.
-  bool needs_solid_turned() const { return solid.bounce && solid.enabled() && walls.wall_mask != 0; }
+  bool needs_solid_turned() const {
+    return solid.bounce && solid.enabled() && walls.wall_mask != 0;
+  }
   void size_solid_turned() {
     if (needs_solid_turned()) solid_turned.assign(x.size(), 0);
   }

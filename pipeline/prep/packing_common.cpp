@@ -70,7 +70,8 @@ void TileGenerationArgs::add_to(CLI::App* app, const std::string& prefix) {
 sim::BackendKind TileGenerationArgs::resolved_backend() const {
   if (backend == "cpu") return sim::BackendKind::CPU;
   if (backend == "cuda") return sim::BackendKind::CUDA;
-  if (backend != "auto") throw ConfigError("tiles: backend must be auto, cpu or cuda (got '" + backend + "')");
+  if (backend != "auto")
+    throw ConfigError("tiles: backend must be auto, cpu or cuda (got '" + backend + "')");
   // Asked once: the answer does not change while the process runs.
   static const bool device = sim::cuda_unavailable_reason().empty();
   return device ? sim::BackendKind::CUDA : sim::BackendKind::CPU;

@@ -9,8 +9,8 @@
 #include <functional>
 #include <string>
 
-#include "tiledb/database.h"
 #include "sim/simulation.h"
+#include "tiledb/database.h"
 #include "tiledb/generate.h"
 
 namespace mesorock::pipeline::prep {

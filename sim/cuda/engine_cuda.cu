@@ -1578,7 +1578,7 @@ class CudaEngine final : public Engine<Real>,
   // StepView::solid_turned and the second buffer a sort moves it into (solid grid and wall model)
   DeviceBuffer<std::uint8_t> solid_turned_, solid_turned_alt_;
   bool solid_turned_on_ = false;
-  int nslabs_ = 0;                    // rigid slabs only:
+  int nslabs_ = 0;  // rigid slabs only:
   DeviceBuffer<RigidSlabBody> slab_bodies_;
   DeviceBuffer<Real> slab_half_velocity_, slab_velocity_;
   DeviceBuffer<double> slab_partials_;

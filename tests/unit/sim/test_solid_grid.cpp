@@ -317,9 +317,9 @@ TEST_P(Solid, AParticleInAPocketItCannotLeaveIsTurnedOncePerStep) {
   ms::fill_lattice(walls, wall, {0, 0, 0}, {4, 4, 4}, 12, next);
   for (size_t i = 0; i < walls.size(); ++i) {
     const bool hollow = walls.x[i] >= 2.0 && walls.x[i] < 2.5;
-    if (!hollow && mask->is_solid(static_cast<int>(walls.x[i] / 0.5),
-                                  static_cast<int>(walls.y[i] / 0.5),
-                                  static_cast<int>(walls.z[i] / 0.5)))
+    if (!hollow &&
+        mask->is_solid(static_cast<int>(walls.x[i] / 0.5), static_cast<int>(walls.y[i] / 0.5),
+                       static_cast<int>(walls.z[i] / 0.5)))
       s.particles.add(walls.x[i], walls.y[i], walls.z[i], 0, 0, 0, wall, walls.id[i]);
   }
   s.particles.add(1.9, 1.74, 1.77, 1.0, 0.1, -0.05, fluid, next);

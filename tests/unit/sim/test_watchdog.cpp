@@ -56,10 +56,10 @@ TEST_P(Watchdog, RunawayParticleStopsTheRunAtStepOneNamingIt) {
   s.particles.vx[7] = 500;  // 5 rc per step at dt = 0.01; the limit is 1 rc per step (100)
   auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, options());
   const std::string msg = error_of(*sim, 20);
-  EXPECT_TRUE(
-      std::regex_match(msg, std::regex("step 1: particle 7: velocity [3-5][0-9][0-9] exceeds the "
-                                       "runaway limit 100 \\(1 rc per step at dt = "
-                                       "0\\.01\\) at \\([-0-9.e+, ]+\\); dt may be too large for these forces")))
+  EXPECT_TRUE(std::regex_match(
+      msg, std::regex("step 1: particle 7: velocity [3-5][0-9][0-9] exceeds the "
+                      "runaway limit 100 \\(1 rc per step at dt = "
+                      "0\\.01\\) at \\([-0-9.e+, ]+\\); dt may be too large for these forces")))
       << msg;
 }
 
