@@ -45,7 +45,7 @@ class CellSorter {
     permute(s.type, scratch_int_);
     permute(s.origin, scratch_int_);
     permute(s.id, scratch_id_);
-    if (!s.solid_turned.empty()) permute(s.solid_turned, scratch_flag_);
+    if (!s.left_to_grid.empty()) permute(s.left_to_grid, scratch_flag_);
     if (carry_forces)  // phi is empty without the wall model: a no-op then
       for (auto* a : {&s.fx, &s.fy, &s.fz, &s.rho, &s.bvf}) permute(*a, scratch_real_);
   }
@@ -79,7 +79,7 @@ class CpuEngine final : public Engine<Real>,
 
   void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     s_ = &host;
-    host.size_solid_turned();
+    host.size_left_to_grid();
     this->attach_hooks(hooks);
     ThreadScope scope(threads_);
     this->initial_forces();
@@ -88,7 +88,7 @@ class CpuEngine final : public Engine<Real>,
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>& hooks) override {
     s_ = &host;
-    host.size_solid_turned();
+    host.size_left_to_grid();
     this->attach_hooks(hooks);
     corrected_ = wall_corrections;
     ThreadScope scope(threads_);
@@ -377,7 +377,7 @@ class CpuEngine final : public Engine<Real>,
       r.f[0] = s.fx[i], r.f[1] = s.fy[i], r.f[2] = s.fz[i];
       r.type = s.type[i];
       r.id = s.id[i];
-      r.solid_turned = s.solid_turned.empty() ? 0 : s.solid_turned[i];
+      r.left_to_grid = s.left_to_grid.empty() ? 0 : s.left_to_grid[i];
       leavers.push_back(r);
     }
     if (keep_.size() != static_cast<size_t>(n))  // else nothing left and there were no ghosts
@@ -393,7 +393,7 @@ class CpuEngine final : public Engine<Real>,
     HostState<Real>& s = *s_;
     for (const MigrantRecord<Real>& r : in) {
       s.origin.push_back(static_cast<std::int32_t>(s.x.size()));
-      push_particle(r.x, r.v, r.ve, r.f, r.type, r.id, r.solid_turned);
+      push_particle(r.x, r.v, r.ve, r.f, r.type, r.id, r.left_to_grid);
     }
   }
 
@@ -486,9 +486,9 @@ class CpuEngine final : public Engine<Real>,
   }
 
   void push_particle(const Real x[3], const Real v[3], const Real ve[3], const Real f[3],
-                     std::int32_t type, std::int64_t id, std::uint8_t solid_turned = 0) {
+                     std::int32_t type, std::int64_t id, std::uint8_t left_to_grid = 0) {
     HostState<Real>& s = *s_;
-    if (s.needs_solid_turned()) s.solid_turned.push_back(solid_turned);
+    if (s.needs_left_to_grid()) s.left_to_grid.push_back(left_to_grid);
     // v~ exists only with a thermostat, phi only with the wall model (HostState).
     if constexpr (Terms::thermostat::enabled)
       s.vex.push_back(ve[0]), s.vey.push_back(ve[1]), s.vez.push_back(ve[2]);

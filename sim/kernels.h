@@ -80,12 +80,15 @@ struct StepView {
   WallModelView<Real> walls;         // read only by the wall-model pass variants
   VirtualWalls<Real> virtual_walls;  // planes that keep some types on one side until a step
   SolidView<Real> solid;             // the solid as voxels (sim/solid_grid.h); often none
-  // With the solid grid's bounce and the wall model both on: 1 for a particle the bounce turned
-  // in this step's drift, else 0 (kick_drift writes it, the wall model's corrector reads it, a
-  // sort moves it). The grid has the last word: a second turn by the corrector would undo the
-  // bounce, and a particle in a pocket it cannot leave then gained speed every step until the
-  // watchdog stopped the run (docs/walls.md, "One turn per step"). Null otherwise.
-  std::uint8_t* solid_turned = nullptr;
+  // With the solid grid's bounce and the wall model both on: 1 for a particle the wall model's
+  // corrector leaves to the grid in this step, else 0 (kick_drift writes it, the corrector reads
+  // it, a sort moves it): one the bounce turned in this step's drift, whom a second turn would
+  // turn back (a particle in a pocket it could not leave then gained speed every step), and one
+  // that started the step inside the wall (phi > phi_c), which the corrector would turn at every
+  // step while a push gains on the steps it does not (a fluid cluster in a tight pore was thrown
+  // out at 100 rc per time unit). The grid keeps both out of the solid. docs/walls.md, "One turn
+  // per step". Null otherwise.
+  std::uint8_t* left_to_grid = nullptr;
   RigidSlabs<Real> slabs;  // pistons moving as rigid bodies (sim/rigid_slabs.h)
 
   Real rd = Real(0.75);
@@ -396,7 +399,7 @@ template <class Real>
 MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real phi,
                                                 Real dv[3], Parts parts = Parts::All) {
   if (v.frozen(i) || v.ghost(i) || v.walls.is_wall(v.type[i]) || v.slabs.is_slab(v.type[i]) ||
-      !(phi > v.walls.phi_c) || (v.solid_turned && v.solid_turned[i]))
+      !(phi > v.walls.phi_c) || (v.left_to_grid && v.left_to_grid[i]))
     return false;
   Real nx = 0, ny = 0, nz = 0;
   for_each_neighbour(
@@ -811,8 +814,10 @@ MESO_HD MESO_INLINE void kick_drift(const StepView<Real>& v, int i) {
   apply_boundary<Real, kVelocityEstimate>(v, i, v.z, v.vz, v.vez, 2);
   apply_virtual_walls<Real, kVelocityEstimate>(v, i);
   if (v.solid.bounce && v.solid.enabled()) {
+    // phi at the step's start: the last sums were taken where the particle stood.
+    const bool started_inside = v.left_to_grid && v.bvf[i] > v.walls.phi_c;
     const bool turned = bounce_off_solid<Real, kVelocityEstimate>(v, i, x0, y0, z0);
-    if (v.solid_turned) v.solid_turned[i] = turned;
+    if (v.left_to_grid) v.left_to_grid[i] = turned || started_inside;
   }
 }
 

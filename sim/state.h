@@ -22,8 +22,8 @@ template <class Real>
 struct HostState {
   std::vector<Real> x, y, z, vx, vy, vz, vex, vey, vez, fx, fy, fz, rho;
   std::vector<Real> bvf;  // boundary volume fraction: empty without the wall model
-  // StepView::solid_turned: sized only with the solid grid's bounce and the wall model both on.
-  std::vector<std::uint8_t> solid_turned;
+  // StepView::left_to_grid: sized only with the solid grid's bounce and the wall model both on.
+  std::vector<std::uint8_t> left_to_grid;
   std::vector<std::int32_t> type;
   std::vector<std::int64_t> id;
   // Where each stored particle stood in the initial ParticleSet: engines keep particles sorted by
@@ -71,15 +71,15 @@ struct HostState {
     f(type);
     f(id);
     f(origin);
-    if (solid_turned.size() == n) f(solid_turned);
+    if (left_to_grid.size() == n) f(left_to_grid);
   }
 
-  // Whether this run needs StepView::solid_turned, and the array sized (zeros) when it does.
-  bool needs_solid_turned() const {
+  // Whether this run needs StepView::left_to_grid, and the array sized (zeros) when it does.
+  bool needs_left_to_grid() const {
     return solid.bounce && solid.enabled() && walls.wall_mask != 0;
   }
-  void size_solid_turned() {
-    if (needs_solid_turned()) solid_turned.assign(x.size(), 0);
+  void size_left_to_grid() {
+    if (needs_left_to_grid()) left_to_grid.assign(x.size(), 0);
   }
 
   // Raw-pointer view of the host arrays for the kernel bodies.
@@ -95,7 +95,7 @@ struct HostState {
     v.fx = fx.data(), v.fy = fy.data(), v.fz = fz.data();
     v.rho = rho.data();
     v.bvf = bvf.empty() ? nullptr : bvf.data();
-    v.solid_turned = solid_turned.empty() ? nullptr : solid_turned.data();
+    v.left_to_grid = left_to_grid.empty() ? nullptr : left_to_grid.data();
     v.walls = walls;
     v.walls.kappa = kappa.empty() ? nullptr : kappa.data();
     v.type = type.data();

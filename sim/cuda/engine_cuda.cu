@@ -154,7 +154,7 @@ struct PermuteTable {
   std::int32_t* out_int[2] = {};
   const std::int64_t* in_id = nullptr;
   std::int64_t* out_id = nullptr;
-  const std::uint8_t* in_flag = nullptr;  // StepView::solid_turned, when there is one
+  const std::uint8_t* in_flag = nullptr;  // StepView::left_to_grid, when there is one
   std::uint8_t* out_flag = nullptr;
 };
 
@@ -368,7 +368,7 @@ __global__ void pack_migrants_kernel(StepView<Real> v, const int* idx, int m,
   r.f[0] = v.fx[i], r.f[1] = v.fy[i], r.f[2] = v.fz[i];
   r.type = v.type[i];
   r.id = v.id[i];
-  r.solid_turned = v.solid_turned ? v.solid_turned[i] : 0;
+  r.left_to_grid = v.left_to_grid ? v.left_to_grid[i] : 0;
   out[k] = r;
 }
 
@@ -387,7 +387,7 @@ __global__ void unpack_migrants_kernel(StepView<Real> v, const MigrantRecord<Rea
   if (v.bvf != nullptr) v.bvf[i] = Real(0);
   const_cast<std::int32_t*>(v.type)[i] = r.type;
   const_cast<std::int64_t*>(v.id)[i] = r.id;
-  if (v.solid_turned) v.solid_turned[i] = r.solid_turned;
+  if (v.left_to_grid) v.left_to_grid[i] = r.left_to_grid;
   origin[i] = base + k;
 }
 
@@ -636,7 +636,7 @@ class CudaEngine final : public Engine<Real>,
 
   void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     this->attach_hooks(hooks);
-    host.size_solid_turned();
+    host.size_left_to_grid();
     upload(host);
     this->initial_forces();
     check(cudaStreamSynchronize(cudaStreamPerThread), "initial forces");
@@ -645,7 +645,7 @@ class CudaEngine final : public Engine<Real>,
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>& hooks) override {
     this->attach_hooks(hooks);
-    host.size_solid_turned();
+    host.size_left_to_grid();
     upload(host);
     corrected_ = wall_corrections;
     // A single-rank checkpoint is already sorted (stable sort: no particle moves); a gathered one
@@ -679,9 +679,9 @@ class CudaEngine final : public Engine<Real>,
     if constexpr (W::enabled) {
       bvf_.upload(host.bvf);
       kappa_.upload(host.kappa);
-      solid_turned_on_ = host.needs_solid_turned();  // the solid grid bounces too
-      solid_turned_.upload(host.solid_turned);
-      solid_turned_alt_.resize(host.solid_turned.size());
+      left_to_grid_on_ = host.needs_left_to_grid();  // the solid grid bounces too
+      left_to_grid_.upload(host.left_to_grid);
+      left_to_grid_alt_.resize(host.left_to_grid.size());
       count_.resize(1);
       check(cudaMallocHost(&count_host_, sizeof(unsigned int)), "cudaMallocHost");
     }
@@ -950,7 +950,7 @@ class CudaEngine final : public Engine<Real>,
     v.fx = fx_.get(), v.fy = fy_.get(), v.fz = fz_.get();
     v.rho = rho_.get();
     v.bvf = bvf_.get();
-    v.solid_turned = solid_turned_on_ ? solid_turned_.get() : nullptr;
+    v.left_to_grid = left_to_grid_on_ ? left_to_grid_.get() : nullptr;
     v.walls.kappa = kappa_.get();
     if (v.solid.enabled()) v.solid.solid = solid_.get();
     v.slabs.half_velocity = slab_half_velocity_.get();
@@ -1143,14 +1143,14 @@ class CudaEngine final : public Engine<Real>,
     t.in_int[0] = type_.get(), t.out_int[0] = type_alt_.get();
     t.in_int[1] = origin_.get(), t.out_int[1] = origin_alt_.get();
     t.in_id = id_.get(), t.out_id = id_alt_.get();
-    if (solid_turned_on_) t.in_flag = solid_turned_.get(), t.out_flag = solid_turned_alt_.get();
+    if (left_to_grid_on_) t.in_flag = left_to_grid_.get(), t.out_flag = left_to_grid_alt_.get();
     permute_kernel<<<blocks_for(count), kBlock>>>(t, perm_.get(), m, count);
     for (size_t a = 0; a < reals.size(); ++a)
       if (reals[a]->size() > 0) reals[a]->swap(moved_alt_[a]);
     type_.swap(type_alt_);
     origin_.swap(origin_alt_);
     id_.swap(id_alt_);
-    if (solid_turned_on_) solid_turned_.swap(solid_turned_alt_);
+    if (left_to_grid_on_) left_to_grid_.swap(left_to_grid_alt_);
   }
   std::array<DeviceBuffer<Real>*, PermuteTable<Real>::kMaxReal> moved_reals() {
     return {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_};
@@ -1332,8 +1332,8 @@ class CudaEngine final : public Engine<Real>,
     for (DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
       a->set_size(s);
     for (DeviceBuffer<std::int64_t>* a : {&id_, &id_alt_}) a->set_size(s);
-    if (solid_turned_on_)
-      for (DeviceBuffer<std::uint8_t>* a : {&solid_turned_, &solid_turned_alt_}) a->set_size(s);
+    if (left_to_grid_on_)
+      for (DeviceBuffer<std::uint8_t>* a : {&left_to_grid_, &left_to_grid_alt_}) a->set_size(s);
     for (DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_}) a->set_size(s);
     n_ = n;
     size_t temp = 0;
@@ -1382,7 +1382,7 @@ class CudaEngine final : public Engine<Real>,
     b += (id_.size() + id_alt_.size()) * sizeof(std::int64_t);
     for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
       b += a->size() * sizeof(int);
-    b += sort_temp_.size() + solid_.size() + solid_turned_.size() + solid_turned_alt_.size() +
+    b += sort_temp_.size() + solid_.size() + left_to_grid_.size() + left_to_grid_alt_.size() +
          table_.size() * sizeof(PairParams<Real>) +
          (virial_.size() + bins_.size()) * sizeof(double);
     return b;
@@ -1434,7 +1434,7 @@ class CudaEngine final : public Engine<Real>,
     for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
       add(*a);
     add(sort_temp_), add(table_), add(solid_), add(slab_bodies_), add(slab_partials_);
-    add(solid_turned_), add(solid_turned_alt_);
+    add(left_to_grid_), add(left_to_grid_alt_);
     add(early_count_), add(watchdog_record_), add(step_base_);
     double dt = static_cast<double>(dt_);
     std::uint64_t dt_bits = 0;
@@ -1575,9 +1575,9 @@ class CudaEngine final : public Engine<Real>,
   DeviceBuffer<double> virial_, bins_;
   DeviceBuffer<Real> bvf_, kappa_;    // wall model only
   DeviceBuffer<std::uint8_t> solid_;  // the solid grid's voxels (scenes with one only)
-  // StepView::solid_turned and the second buffer a sort moves it into (solid grid and wall model)
-  DeviceBuffer<std::uint8_t> solid_turned_, solid_turned_alt_;
-  bool solid_turned_on_ = false;
+  // StepView::left_to_grid and the second buffer a sort moves it into (solid grid and wall model)
+  DeviceBuffer<std::uint8_t> left_to_grid_, left_to_grid_alt_;
+  bool left_to_grid_on_ = false;
   int nslabs_ = 0;  // rigid slabs only:
   DeviceBuffer<RigidSlabBody> slab_bodies_;
   DeviceBuffer<Real> slab_half_velocity_, slab_velocity_;

@@ -23,7 +23,7 @@ struct MigrantRecord {
   Real x[3], v[3], ve[3], f[3];
   std::int32_t type;
   std::int64_t id;
-  std::uint8_t solid_turned;  // StepView::solid_turned (0 without it)
+  std::uint8_t left_to_grid;  // StepView::left_to_grid (0 without it)
 };
 
 // A ghost: what the pair terms read of a particle (position, v~, type, id); its density and phi
