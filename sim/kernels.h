@@ -82,7 +82,7 @@ struct StepView {
   SolidView<Real> solid;             // the solid as voxels (sim/solid_grid.h); often none
   // With the solid grid's bounce and the wall model both on: 1 for a particle the wall model's
   // corrector leaves to the grid in this step, else 0 (kick_drift writes it, the corrector reads
-  // it, a sort moves it): one the bounce turned in this step's drift, whom a second turn would
+  // it, a sort moves it): one the bounce turned in this step's drift, which a second turn would
   // turn back (a particle in a pocket it could not leave then gained speed every step), and one
   // that started the step inside the wall (phi > phi_c), which the corrector would turn at every
   // step while a push gains on the steps it does not (a fluid cluster in a tight pore was thrown
