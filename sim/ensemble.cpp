@@ -1,5 +1,7 @@
 #include "sim/ensemble.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <atomic>
 #include <exception>
@@ -43,6 +45,13 @@ int ensemble_lanes(int members, double particles, int requested) {
   if (requested != 0) return requested;
   if (members <= 1 || members * particles <= kTwoLanesUpTo) return 0;  // each chooses itself
   return particles > kTwoLanesUpTo ? 1 : 2;
+}
+
+SimulationOptions ensemble_member_options(SimulationOptions o, int members, double particles) {
+  if (members > 1 && o.backend == BackendKind::CPU && o.threads <= 0)
+    o.threads = std::max(1, omp_get_max_threads() / members);
+  o.lanes_per_particle = ensemble_lanes(members, particles, o.lanes_per_particle);
+  return o;
 }
 
 }  // namespace mesorock::sim

@@ -24,4 +24,9 @@ void run_ensemble(int count, const std::function<void(int member)>& job, int max
 // member's chain of small kernels without crowding the device.
 int ensemble_lanes(int members, double particles, int requested);
 
+// `options` for each of `members` systems of `particles` stepped side by side: on the CPU the
+// members share the cores (threads split among them unless set), on the GPU ensemble_lanes.
+struct SimulationOptions;
+SimulationOptions ensemble_member_options(SimulationOptions options, int members, double particles);
+
 }  // namespace mesorock::sim

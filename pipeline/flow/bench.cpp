@@ -137,13 +137,10 @@ BenchResult run_bench(const BenchOptions& o) {
     r.setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count() - r.seconds;
     return r;
   }
-  sim::SimulationOptions timed = o.sim;
-  timed.profile = false;  // the timed run never synchronises per step
   const int members = std::max(1, o.ensemble);
-  if (members > 1 && timed.backend == sim::BackendKind::CPU && timed.threads <= 0)
-    timed.threads = std::max(1, omp_get_max_threads() / members);  // the members share the cores
-  timed.lanes_per_particle = sim::ensemble_lanes(members, static_cast<double>(s.particles.size()),
-                                                 timed.lanes_per_particle);
+  sim::SimulationOptions timed =
+      sim::ensemble_member_options(o.sim, members, static_cast<double>(s.particles.size()));
+  timed.profile = false;  // the timed run never synchronises per step
   // Member k: the case with seed + k. One member runs on this thread alone.
   std::vector<std::unique_ptr<sim::Simulation>> sims(static_cast<size_t>(members));
   sim::run_ensemble(members, [&](int k) {

@@ -1,7 +1,5 @@
 #include "pipeline/flow/sweep.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -94,10 +92,6 @@ std::string fmt(double v, int precision = 4) {
   s << std::setprecision(precision) << v;
   return s.str();
 }
-
-}  // namespace
-
-namespace {
 
 // What every point of a sweep shares.
 struct SweepPlan {
@@ -214,14 +208,14 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
   plan.whole.type_mask = o.driven_types;
   plan.axis = static_cast<size_t>(o.axis);
   plan.least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
-  const std::uint64_t least_blocks = plan.least_blocks;
   std::uint64_t prepare_steps = 0;
   for (const auto& stage : o.prepare) prepare_steps += stage.first;
   if (o.meter)
-    o.meter->add_total(static_cast<double>(sample.particles.size()) *
-                       (static_cast<double>(forces.size()) *
-                            static_cast<double>(o.warmup_steps + least_blocks * o.block_steps) +
-                        static_cast<double>(prepare_steps)));
+    o.meter->add_total(
+        static_cast<double>(sample.particles.size()) *
+        (static_cast<double>(forces.size()) *
+             static_cast<double>(o.warmup_steps + plan.least_blocks * o.block_steps) +
+         static_cast<double>(prepare_steps)));
   std::vector<SweepPoint> points;
   sim::ParticleSet prepared = sample.particles;
   if (!o.prepare.empty()) {  // the scene's early stages, once, without the driving force
@@ -239,12 +233,8 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
   if (o.side_by_side) {
     // Every point from the prepared particles, all at once (sim/ensemble.h); on the CPU they
     // share the cores.
-    sim::SimulationOptions each = o.sim;
-    if (each.backend == sim::BackendKind::CPU && each.threads <= 0)
-      each.threads = std::max(1, omp_get_max_threads() / static_cast<int>(forces.size()));
-    each.lanes_per_particle =
-        sim::ensemble_lanes(static_cast<int>(forces.size()), static_cast<double>(prepared.size()),
-                            each.lanes_per_particle);
+    const sim::SimulationOptions each = sim::ensemble_member_options(
+        o.sim, static_cast<int>(forces.size()), static_cast<double>(prepared.size()));
     if (o.meter) o.meter->set_phase(std::to_string(forces.size()) + " points side by side");
     points.resize(forces.size());
     sim::run_ensemble(static_cast<int>(forces.size()), [&](int k) {
