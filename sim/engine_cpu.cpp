@@ -79,7 +79,6 @@ class CpuEngine final : public Engine<Real>,
 
   void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     s_ = &host;
-    host.size_left_to_grid();
     this->attach_hooks(hooks);
     ThreadScope scope(threads_);
     this->initial_forces();
@@ -88,7 +87,6 @@ class CpuEngine final : public Engine<Real>,
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>& hooks) override {
     s_ = &host;
-    host.size_left_to_grid();
     this->attach_hooks(hooks);
     corrected_ = wall_corrections;
     ThreadScope scope(threads_);

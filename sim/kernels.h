@@ -108,6 +108,7 @@ struct StepView {
   // With a frozen part: stored particle i's place among the frozen ones (frozen_rho's index).
   MESO_HD int frozen_index(int i) const { return i - cell_start[frozen_part]; }
   MESO_HD bool ghost(int i) const { return has_ghosts && origin[i] < 0; }
+  MESO_HD bool left_to_grid_at(int i) const { return left_to_grid && left_to_grid[i]; }
 };
 
 // Calls visit(j, dx, dy, dz, r2) for every particle j in the cell stencil around particle i's
@@ -399,7 +400,7 @@ template <class Real>
 MESO_HD MESO_INLINE bool penetration_correction(const StepView<Real>& v, int i, Real phi,
                                                 Real dv[3], Parts parts = Parts::All) {
   if (v.frozen(i) || v.ghost(i) || v.walls.is_wall(v.type[i]) || v.slabs.is_slab(v.type[i]) ||
-      !(phi > v.walls.phi_c) || (v.left_to_grid && v.left_to_grid[i]))
+      !(phi > v.walls.phi_c) || v.left_to_grid_at(i))
     return false;
   Real nx = 0, ny = 0, nz = 0;
   for_each_neighbour(

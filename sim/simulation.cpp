@@ -161,6 +161,7 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
   }
   s.type = p.type;
   s.id = p.id;
+  s.size_left_to_grid();  // the walls and the solid, set above, decide whether it exists
   // A mobile particle in the pore in double precision may round into the solid voxel next to
   // it in single (a packed particle sits just inside its voxel's face): move it back by the
   // fewest ulps, so the solid grid's invariant (no mobile particle inside) holds from step 0.

@@ -243,7 +243,8 @@ __global__ void correction_kernel(StepView<Real> v, unsigned int* count) {
 template <class Real, bool kVelocityEstimate>
 __global__ void correction_before_sort_kernel(StepView<Real> v, unsigned long long* count) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= v.n || v.frozen(i)) return;
+  // A particle left to the solid grid needs no phi: the scan is skipped.
+  if (i >= v.n || v.frozen(i) || v.left_to_grid_at(i)) return;
   Real dv[3];
   if (penetration_correction(v, i, wall_fraction(v, i, Parts::FrozenOnly), dv, Parts::FrozenOnly)) {
     apply_penetration_correction<Real, kVelocityEstimate>(v, i, dv);
@@ -636,7 +637,6 @@ class CudaEngine final : public Engine<Real>,
 
   void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     this->attach_hooks(hooks);
-    host.size_left_to_grid();
     upload(host);
     this->initial_forces();
     check(cudaStreamSynchronize(cudaStreamPerThread), "initial forces");
@@ -645,7 +645,6 @@ class CudaEngine final : public Engine<Real>,
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>& hooks) override {
     this->attach_hooks(hooks);
-    host.size_left_to_grid();
     upload(host);
     corrected_ = wall_corrections;
     // A single-rank checkpoint is already sorted (stable sort: no particle moves); a gathered one
@@ -679,8 +678,7 @@ class CudaEngine final : public Engine<Real>,
     if constexpr (W::enabled) {
       bvf_.upload(host.bvf);
       kappa_.upload(host.kappa);
-      left_to_grid_on_ = host.needs_left_to_grid();  // the solid grid bounces too
-      left_to_grid_.upload(host.left_to_grid);
+      left_to_grid_.upload(host.left_to_grid);  // empty unless the solid grid bounces too
       left_to_grid_alt_.resize(host.left_to_grid.size());
       count_.resize(1);
       check(cudaMallocHost(&count_host_, sizeof(unsigned int)), "cudaMallocHost");
@@ -950,7 +948,7 @@ class CudaEngine final : public Engine<Real>,
     v.fx = fx_.get(), v.fy = fy_.get(), v.fz = fz_.get();
     v.rho = rho_.get();
     v.bvf = bvf_.get();
-    v.left_to_grid = left_to_grid_on_ ? left_to_grid_.get() : nullptr;
+    v.left_to_grid = left_to_grid_on() ? left_to_grid_.get() : nullptr;
     v.walls.kappa = kappa_.get();
     if (v.solid.enabled()) v.solid.solid = solid_.get();
     v.slabs.half_velocity = slab_half_velocity_.get();
@@ -1143,14 +1141,14 @@ class CudaEngine final : public Engine<Real>,
     t.in_int[0] = type_.get(), t.out_int[0] = type_alt_.get();
     t.in_int[1] = origin_.get(), t.out_int[1] = origin_alt_.get();
     t.in_id = id_.get(), t.out_id = id_alt_.get();
-    if (left_to_grid_on_) t.in_flag = left_to_grid_.get(), t.out_flag = left_to_grid_alt_.get();
+    if (left_to_grid_on()) t.in_flag = left_to_grid_.get(), t.out_flag = left_to_grid_alt_.get();
     permute_kernel<<<blocks_for(count), kBlock>>>(t, perm_.get(), m, count);
     for (size_t a = 0; a < reals.size(); ++a)
       if (reals[a]->size() > 0) reals[a]->swap(moved_alt_[a]);
     type_.swap(type_alt_);
     origin_.swap(origin_alt_);
     id_.swap(id_alt_);
-    if (left_to_grid_on_) left_to_grid_.swap(left_to_grid_alt_);
+    if (left_to_grid_on()) left_to_grid_.swap(left_to_grid_alt_);
   }
   std::array<DeviceBuffer<Real>*, PermuteTable<Real>::kMaxReal> moved_reals() {
     return {&x_, &y_, &z_, &vx_, &vy_, &vz_, &vex_, &vey_, &vez_};
@@ -1332,7 +1330,7 @@ class CudaEngine final : public Engine<Real>,
     for (DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
       a->set_size(s);
     for (DeviceBuffer<std::int64_t>* a : {&id_, &id_alt_}) a->set_size(s);
-    if (left_to_grid_on_)
+    if (left_to_grid_on())
       for (DeviceBuffer<std::uint8_t>* a : {&left_to_grid_, &left_to_grid_alt_}) a->set_size(s);
     for (DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_}) a->set_size(s);
     n_ = n;
@@ -1393,6 +1391,8 @@ class CudaEngine final : public Engine<Real>,
   // Frozen particles in a part of their own (StepView::frozen_part): with frozen types, unless
   // switched off (SimulationOptions::frozen_part, to measure what it saves).
   bool split_frozen() const { return frozen_part_ && host_->frozen_mask != 0; }
+  // StepView::left_to_grid: the solid grid's bounce and the wall model both on.
+  bool left_to_grid_on() const { return W::enabled && host_->needs_left_to_grid(); }
 
   std::uint64_t graph_steps() const override { return graph_steps_; }
 
@@ -1577,7 +1577,6 @@ class CudaEngine final : public Engine<Real>,
   DeviceBuffer<std::uint8_t> solid_;  // the solid grid's voxels (scenes with one only)
   // StepView::left_to_grid and the second buffer a sort moves it into (solid grid and wall model)
   DeviceBuffer<std::uint8_t> left_to_grid_, left_to_grid_alt_;
-  bool left_to_grid_on_ = false;
   int nslabs_ = 0;  // rigid slabs only:
   DeviceBuffer<RigidSlabBody> slab_bodies_;
   DeviceBuffer<Real> slab_half_velocity_, slab_velocity_;
