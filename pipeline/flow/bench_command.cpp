@@ -8,6 +8,16 @@
 
 namespace mesorock::pipeline {
 
+namespace {
+
+// A CUDA switch that exists only to measure what it saves: "--name on|off", default on.
+void add_measuring_switch(CLI::App* app, const std::string& name, std::string& value,
+                          const std::string& help) {
+  app->add_option(name, value, help)->check(CLI::IsMember({"on", "off"}))->capture_default_str();
+}
+
+}  // namespace
+
 FlowCommand add_bench_command(CLI::App& rockflow) {
   struct Args {
     SolverFlags flags;
@@ -48,18 +58,12 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
       ->check(CLI::Range(0.0, 1.0));
   bench->add_flag("--decompose", a->decompose,
                   "run the decomposed (MPI) solver even on one rank, to measure its cost");
-  bench
-      ->add_option("--frozen-part", a->frozen_part,
-                   "CUDA: store frozen particles apart, sorted once (on), or mixed with the "
-                   "mobile ones (off: only to measure what it saves)")
-      ->check(CLI::IsMember({"on", "off"}))
-      ->capture_default_str();
-  bench
-      ->add_option("--graphs", a->graphs,
-                   "CUDA: replay runs of steps captured as CUDA graphs (on) or launch every "
-                   "kernel (off: only to measure what graphs save; the results are the same)")
-      ->check(CLI::IsMember({"on", "off"}))
-      ->capture_default_str();
+  add_measuring_switch(bench, "--frozen-part", a->frozen_part,
+                       "CUDA: store frozen particles apart, sorted once (on), or mixed with the "
+                       "mobile ones (off: only to measure what it saves)");
+  add_measuring_switch(bench, "--graphs", a->graphs,
+                       "CUDA: replay runs of steps captured as CUDA graphs (on) or launch every "
+                       "kernel (off: only to measure what graphs save; the results are the same)");
   bench
       ->add_option("--ensemble", a->bo.ensemble,
                    "run this many copies of the case side by side (seeds seed, seed+1, ...); "
