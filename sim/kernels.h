@@ -124,10 +124,17 @@ enum class Parts : int { All = 0, MobileOnly = 1, FrozenOnly = 2 };
 // bodies add their partial sums with sum() and the leader writes. Why: a small system has too
 // few particles to fill the GPU with one thread each. OneLane, the default (the CPU, the other
 // passes, large systems), is the scan unchanged: every sum in the order it always had.
+//
+// A lane group may also keep the neighbours its scans find (the GPU's neighbour list for small
+// systems): record(j) is called for each neighbour j of the density pass, in scan order, and a
+// group with kReplays visits those instead of scanning again in the force pass (sim/cuda:
+// RecordingLanes, ReplayingLanes). OneLane keeps nothing: record compiles to nothing.
 struct OneLane {
   static constexpr int kCount = 1;
+  static constexpr bool kReplays = false;
   MESO_HD int index() const { return 0; }
   MESO_HD bool leader() const { return true; }
+  MESO_HD void record(int) const {}
   template <class T>
   MESO_HD T sum(T x) const {
     return x;
@@ -213,7 +220,10 @@ MESO_HD MESO_INLINE void for_each_neighbour(const StepView<Real>& v, int i, Visi
   for_each_candidate(
       v, i,
       [&](int j, Real dx, Real dy, Real dz, Real r2) {
-        if (r2 < Real(1) && j != i) visit(j, dx, dy, dz, r2);
+        if (r2 < Real(1) && j != i) {
+          lanes.record(j);
+          visit(j, dx, dy, dz, r2);
+        }
       },
       parts, lanes);
 }
@@ -250,6 +260,24 @@ MESO_HD MESO_INLINE void for_each_neighbour_stashed(const StepView<Real>& v, int
   for_each_neighbour(v, i, visit, Parts::All, lanes);
 #else
   const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
+  if constexpr (Lanes::kReplays) {
+    // This lane's neighbours as the density pass found them, in its scan order: the same visits
+    // as the scan, without it. A lane that found more than its list holds scans in place (the
+    // scan order too; the replaying kernels have no stash).
+    const int recorded = lanes.recorded_count();
+    if (recorded > Lanes::kListCapacity) {
+      for_each_neighbour(v, i, visit, Parts::All, lanes);
+      return;
+    }
+    for (int k = 0; k < recorded; ++k) {
+      const int j = lanes.recorded(k);
+      const Real dx = v.box.minimum_image(xi - v.x[j], 0);
+      const Real dy = v.box.minimum_image(yi - v.y[j], 1);
+      const Real dz = v.box.minimum_image(zi - v.z[j], 2);
+      visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+    }
+    return;
+  }
   int count = 0;
   auto flush = [&]() {
     for (int k = 0; k < count; ++k) {

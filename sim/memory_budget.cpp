@@ -96,7 +96,7 @@ double host_bytes_per_particle(Precision p) {
 
 double device_bytes_per_particle(Precision p) {
   const double real = p == Precision::Single ? 4 : 8;
-  return 58 + 28 * real;
+  return 342 + 28 * real;
 }
 
 MemoryAvailable host_memory_available() {

@@ -31,12 +31,15 @@ inline constexpr double kHostBytesPerCell = 8;
 //   28 Real (x..rho 13, the second buffers of the 9 that a sort moves, phi, the positions at
 //   the last sort x0 y0 z0, a frozen particle's static rho and phi),
 //   type, origin and their second buffers (int32) 16 B, id and its second buffer (int64) 16 B,
-//   cell, cell_sorted, index, perm (int) 16 B, CUB's radix-sort temporary (~ one key-value
-//   pair) 8 B, the solid grid's turn flag and its second buffer (uint8) 2 B
-// = 58 + 28 Real: 282 B in double precision, 170 B in single. Per cell: cell_start, 4 B, twice
-// with frozen types (their own part of the cell list); the solid grid: 1 B per voxel.
+//   the cell sort's key, rank, slot and permutation (int) 16 B, the solid grid's turn flag and
+//   its second buffer (uint8) 2 B, the neighbour list (72 slots and a count, int) 292 B
+// = 342 + 28 Real: 566 B in double precision, 454 B in single. Per cell: cell_start and the
+// sort's count, 8 B, twice with frozen types (their own part of the cell list), and the count
+// sum's scratch (CUB, under 1 B); the solid grid: 1 B per voxel. A small system (up to
+// kTwoLanesUpTo particles, several threads per particle) has a longer list: 328 B per particle
+// with 2 lanes, 400 with 4, 544 with 8 (never near a device's limit at that size).
 double device_bytes_per_particle(Precision p);
-inline constexpr double kDeviceBytesPerCell = 8;
+inline constexpr double kDeviceBytesPerCell = 17;
 
 // Memory available now, or nullopt where it cannot be read; `source` names the limit that set it
 // ("MemAvailable", "cgroup memory.max", "RLIMIT_AS (ulimit -v)", "cudaMemGetInfo, device 0").

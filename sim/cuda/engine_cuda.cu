@@ -1,5 +1,5 @@
-// CUDA engine. Per step: kick_drift; cell index per particle; stable radix sort of the particle
-// storage by cell (CUB), so neighbours are contiguous in memory exactly as on the CPU; density
+// CUDA engine. Per step: kick_drift; a stable counting sort of the particle storage by cell
+// (sort_by_cell), so neighbours are contiguous in memory exactly as on the CPU; density
 // (only with a many-body term); forces; kick. Nothing crosses to the host unless an output asks.
 #include <cuda_runtime.h>
 
@@ -7,8 +7,8 @@
 #include <array>
 #include <cstring>
 #include <cub/block/block_reduce.cuh>
-#include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
+#include <cub/device/device_scan.cuh>
 #include <cub/device/device_select.cuh>
 #include <sstream>
 #include <string>
@@ -107,32 +107,31 @@ __global__ void step_base_kernel(std::uint64_t* base, std::uint64_t steps) {
   *base += steps;
 }
 
-// The sort keys of particles [0, count): the cell, offset by the cell count for a frozen one
-// (StepView::frozen_part).
+// The cell sort, a counting sort in three passes (sort_by_cell). Why not a radix sort: at the
+// sizes of tiles, calibrations and sweep points (20,000 particles) CUB's onesweep passes ran on
+// three thread blocks, 21 of a step's 115 us (H200; docs/benchmarks.md).
+//
+// First: each particle's key (its cell, offset by the cell count for a frozen one:
+// StepView::frozen_part) and its arrival rank among the particles of that key. The ranks come
+// from atomics, in no fixed order; order_in_cell_kernel makes the order that of the indices.
 template <class Real>
-__global__ void cell_index_kernel(StepView<Real> v, int count, int* cell, int* index) {
+__global__ void cell_count_kernel(StepView<Real> v, int count, int* cell, int* rank,
+                                  int* cell_count) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
-  cell[i] = cell_of(v, i) + (v.frozen_part > 0 && v.frozen(i) ? v.frozen_part : 0);
-  index[i] = i;
+  const int key = cell_of(v, i) + (v.frozen_part > 0 && v.frozen(i) ? v.frozen_part : 0);
+  cell[i] = key;
+  rank[i] = atomicAdd(cell_count + key, 1);
 }
 
-// cell_start[c] = first sorted position with key >= c, for c in [0, keys] (sorted_cell is
-// non-decreasing), by binary search: one thread per cell. Why not one thread per particle that
-// fills the empty cells before its own: in a rock the grains are long runs of cells without a
-// mobile particle, and one thread then fills hundreds of them while its warp waits.
-__global__ void cell_start_kernel(const int* sorted_cell, int n, int keys, int* cell_start) {
-  const int c = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c > keys) return;
-  int lo = 0, hi = n;
-  while (lo < hi) {
-    const int mid = lo + (hi - lo) / 2;
-    if (sorted_cell[mid] < c)
-      lo = mid + 1;
-    else
-      hi = mid;
-  }
-  cell_start[c] = lo;
+// Second, after the exclusive sum of the counts into cell_start: each particle into a slot of its
+// cell, in arrival order. Threads up to keys also clear the counts for the next sort.
+__global__ void cell_scatter_kernel(const int* cell, const int* rank, int count,
+                                    const int* cell_start, int keys, int* cell_count,
+                                    int* slot_particle) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t < count) slot_particle[cell_start[cell[t]] + rank[t]] = t;
+  if (t <= keys) cell_count[t] = 0;
 }
 
 template <class T>
@@ -158,21 +157,49 @@ struct PermuteTable {
   std::uint8_t* out_flag = nullptr;
 };
 
+// Entry `from` of every array of t into entry `to` of its second buffer.
+template <class Real>
+__device__ MESO_INLINE void move_entry(const PermuteTable<Real>& t, int from, int to) {
+#pragma unroll
+  for (int a = 0; a < PermuteTable<Real>::kMaxReal; ++a)
+    if (a < t.reals) t.out[a][to] = t.in[a][from];
+  t.out_int[0][to] = t.in_int[0][from];
+  t.out_int[1][to] = t.in_int[1][from];
+  t.out_id[to] = t.in_id[from];
+  if (t.out_flag) t.out_flag[to] = t.in_flag[from];
+}
+
 // out[k] = in[perm[k]] for k < m, in[k] for m <= k < count (a sort of the first m entries, the
 // rest copied as they are).
 template <class Real>
 __global__ void permute_kernel(PermuteTable<Real> t, const int* __restrict__ perm, int m,
                                int count) {
   const int k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k >= count) return;
-  const int from = k < m ? perm[k] : k;
-#pragma unroll
-  for (int a = 0; a < PermuteTable<Real>::kMaxReal; ++a)
-    if (a < t.reals) t.out[a][k] = t.in[a][from];
-  t.out_int[0][k] = t.in_int[0][from];
-  t.out_int[1][k] = t.in_int[1][from];
-  t.out_id[k] = t.in_id[from];
-  if (t.out_flag) t.out_flag[k] = t.in_flag[from];
+  if (k < count) move_entry(t, k < m ? perm[k] : k, k);
+}
+
+// Third: the stable order, and the move. A stable sort by cell keeps the particles of one cell in
+// the order of their indices, so a particle's place in its cell is the number of its cell-mates
+// with a smaller index. perm is then exactly the permutation of a stable sort, whatever order the
+// atomics took: the same bits downstream, run after run. Each of the m sorted particles moves to
+// its place in the second buffers (PermuteTable); entries m to count are copied as they are.
+template <class Real>
+__global__ void order_in_cell_kernel(PermuteTable<Real> t, const int* cell,
+                                     const int* slot_particle, int m, int count,
+                                     const int* cell_start, int* perm) {
+  const int s = blockIdx.x * blockDim.x + threadIdx.x;
+  if (s >= count) return;
+  if (s >= m) {
+    move_entry(t, s, s);
+    return;
+  }
+  const int p = slot_particle[s];
+  const int c = cell[p];
+  const int first = cell_start[c], last = cell_start[c + 1];
+  int before = 0;
+  for (int k = first; k < last; ++k) before += slot_particle[k] < p;
+  perm[first + before] = p;
+  move_entry(t, p, first + before);
 }
 
 // Each thread's neighbour stash (sim/kernels.h) in shared memory, slot k at k * blockDim.x so
@@ -197,9 +224,11 @@ template <int L>
 struct LaneGroup {
   static_assert(L == 2 || L == 4 || L == 8, "a lane group divides a warp");
   static constexpr int kCount = L;
+  static constexpr bool kReplays = false;
   int lane;
   __device__ int index() const { return lane; }
   __device__ bool leader() const { return lane == 0; }
+  __device__ void record(int) const {}
   template <class T>
   __device__ T sum(T x) const {
     const unsigned group = ((1u << L) - 1u) << ((threadIdx.x & 31u) & ~unsigned(L - 1));
@@ -208,18 +237,77 @@ struct LaneGroup {
   }
 };
 
-// The gather passes with L threads per particle: particle t / L, lane t % L.
+// The neighbour list (OneLane in sim/kernels.h): the density pass's lanes write the neighbours
+// they find and the force pass's lanes visit them, so the force pass skips its scan (two thirds
+// of it at 20,000 particles). Each thread t of the L * n keeps its own: slot k at
+// slots[k * threads + t] (a warp's writes side by side), its count at counts[t]. A lane that
+// finds more than lane_list_capacity(L) neighbours keeps counting, and scans in the force pass
+// instead; the visits are the same either way.
+struct LaneList {
+  int* slots = nullptr;
+  int* counts = nullptr;
+  int threads = 0;
+};
+// Slots per lane: 72 of one lane, 40 of 2, 24 of 4, 16 of 8 (a liquid at rho = 7 has about 29
+// neighbours).
+__host__ __device__ constexpr int lane_list_capacity(int lanes) {
+  return 8 + 64 / lanes;
+}
+template <int L>
+using LaneBase = std::conditional_t<L == 1, OneLane, LaneGroup<L>>;
+template <int L>
+__device__ MESO_INLINE LaneBase<L> lane_base(int t) {
+  if constexpr (L == 1)
+    return OneLane{};
+  else
+    return LaneGroup<L>{t % L};
+}
+template <int L>
+struct RecordingLanes : LaneBase<L> {
+  LaneList list;
+  int thread;
+  mutable int count = 0;
+  __device__ void record(int j) const {
+    if (count < lane_list_capacity(L))
+      list.slots[static_cast<std::size_t>(count) * list.threads + thread] = j;
+    ++count;
+  }
+};
+template <int L>
+struct ReplayingLanes : LaneBase<L> {
+  static constexpr bool kReplays = true;
+  static constexpr int kListCapacity = lane_list_capacity(L);
+  LaneList list;
+  int thread;
+  __device__ int recorded_count() const { return list.counts[thread]; }
+  __device__ int recorded(int k) const {
+    return list.slots[static_cast<std::size_t>(k) * list.threads + thread];
+  }
+};
+
+// The gather passes with L threads per particle: particle t / L, lane t % L. The sums pass
+// records each lane's neighbours in `list`; the force pass replays them (kReplay) or scans.
 template <int L, class Real, class Body>
-__global__ void for_each_lanes_kernel(StepView<Real> v, Body body) {
+__global__ void for_each_lanes_kernel(StepView<Real> v, Body body, LaneList list) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / L;
-  if (i < v.n) body(v, i, LaneGroup<L>{t % L});
+  if (i >= v.n) return;
+  const RecordingLanes<L> lanes{lane_base<L>(t), list, t};
+  body(v, i, lanes);
+  list.counts[t] = lanes.count;
 }
 template <int L, class Real, class Body>
 __global__ void for_each_stashed_lanes_kernel(StepView<Real> v, Body body) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / L;
   if (i < v.n) body(v, i, thread_stash(), LaneGroup<L>{t % L});
+}
+// The force pass over the list: no scan, so no stash (launched without shared memory).
+template <int L, class Real, class Body>
+__global__ void for_each_replaying_kernel(StepView<Real> v, Body body, LaneList list) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  const int i = t / L;
+  if (i < v.n) body(v, i, NeighbourStash{}, ReplayingLanes<L>{lane_base<L>(t), list, t});
 }
 
 // The wall model's corrector. Decisions read phi, the particle's own velocity and the positions
@@ -654,6 +742,7 @@ class CudaEngine final : public Engine<Real>,
   }
 
   void upload(HostState<Real>& host) {
+    lane_list_ready_ = false;
     host_ = &host;
     frozen_sums_valid_ = false;
     warmed_ = false;
@@ -684,9 +773,9 @@ class CudaEngine final : public Engine<Real>,
       check(cudaMallocHost(&count_host_, sizeof(unsigned int)), "cudaMallocHost");
     }
     ncells_ = host.grid.count();
-    cell_start_.resize(static_cast<size_t>(cell_keys()) + 1);
+    size_cell_arrays();
     cell_.resize(static_cast<size_t>(n));
-    cell_sorted_.resize(static_cast<size_t>(n));
+    cell_slots_.resize(static_cast<size_t>(n));
     index_.resize(static_cast<size_t>(n));
     perm_.resize(static_cast<size_t>(n));
     const auto moved = moved_reals();
@@ -695,11 +784,6 @@ class CudaEngine final : public Engine<Real>,
     origin_alt_.resize(static_cast<size_t>(n));
     id_alt_.resize(static_cast<size_t>(n));
     step_base_.resize(1);
-    size_t temp = 0;
-    check(cub::DeviceRadixSort::SortPairs(nullptr, temp, cell_.get(), cell_sorted_.get(),
-                                          index_.get(), perm_.get(), n),
-          "radix sort sizing");
-    sort_temp_.resize(temp);
     step_ = host.step;
     dt_ = host.dt;
     nslabs_ = static_cast<int>(host.slab_bodies.size());
@@ -983,28 +1067,45 @@ class CudaEngine final : public Engine<Real>,
   void for_each(const StepView<Real>& v, Body body) {
     for_each_kernel<<<blocks_for(v.n), kBlock>>>(v, body);
   }
-  // The pair passes gather per particle (each pair from both sides): no atomics, and the force
-  // pass's neighbour stash keeps a warp's lanes in step. A small system shares each particle's
-  // scan among with_lanes(n) threads (LaneGroup), so that it has threads enough to fill the GPU.
+  // The pair passes gather per particle (each pair from both sides): no atomics. The sums pass
+  // records each thread's neighbours (LaneList) and the force pass visits them; without a sums
+  // pass (no many-body term, no walls) the force pass scans, and its neighbour stash keeps a
+  // warp's lanes in step. A small system shares each particle's scan among with_lanes(n) threads
+  // (LaneGroup), so that it has threads enough to fill the GPU.
   template <class Pass>
   void pair_sums(const StepView<Real>& v, Pass pass) {
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
-      if constexpr (L == 1)
-        for_each(v, pass);
-      else
-        for_each_lanes_kernel<L><<<blocks_for(L * v.n), kBlock>>>(v, pass);
+      for_each_lanes_kernel<L><<<blocks_for(L * v.n), kBlock>>>(v, pass, lane_list(L, v.n));
+      lane_list_ready_ = true;
     });
   }
   template <class Pass>
   void pair_forces(const StepView<Real>& v, Pass pass) {
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
-      if constexpr (L == 1)
-        for_each_stashed_kernel<<<blocks_for(v.n), kBlock, kStashBytes>>>(v, pass);
+      const int g = blocks_for(L * v.n);
+      if (lane_list_ready_)
+        for_each_replaying_kernel<L><<<g, kBlock>>>(v, pass, lane_list_view());
+      else if constexpr (L == 1)
+        for_each_stashed_kernel<<<g, kBlock, kStashBytes>>>(v, pass);
       else
-        for_each_stashed_lanes_kernel<L><<<blocks_for(L * v.n), kBlock, kStashBytes>>>(v, pass);
+        for_each_stashed_lanes_kernel<L><<<g, kBlock, kStashBytes>>>(v, pass);
     });
+    lane_list_ready_ = false;
+  }
+  // The lanes' neighbour list (LaneList) for L lanes of n particles, grown when it must be (the
+  // first step of a run, before any graph is captured; a decomposed run's count changes).
+  LaneList lane_list(int lanes, int n) {
+    const size_t threads = static_cast<size_t>(lanes) * static_cast<size_t>(n);
+    const size_t capacity = static_cast<size_t>(lane_list_capacity(lanes));
+    if (lane_list_counts_.size() < threads) lane_list_counts_.set_size(threads);
+    if (lane_list_slots_.size() < threads * capacity) lane_list_slots_.set_size(threads * capacity);
+    lane_list_threads_ = static_cast<int>(threads);
+    return lane_list_view();
+  }
+  LaneList lane_list_view() {
+    return LaneList{lane_list_slots_.get(), lane_list_counts_.get(), lane_list_threads_};
   }
   // Calls launch(L) with L, the threads per particle of the gather passes, as a compile-time
   // constant: SimulationOptions::lanes_per_particle, or by the particle count (sim/simulation.h).
@@ -1094,29 +1195,33 @@ class CudaEngine final : public Engine<Real>,
   // With a frozen part whose static sums hold, only the mobile part is sorted: the frozen
   // particles never move, so a stable sort would leave their part as it is.
   void sort_by_cell(bool carry_forces) {
+    lane_list_ready_ = false;              // its indices are of the storage before the sort
     if (host_->grid.count() != ncells_) {  // a decomposed run re-balanced: a new cell grid
       ncells_ = host_->grid.count();
-      cell_start_.resize(static_cast<size_t>(cell_keys()) + 1);
+      size_cell_arrays();
       frozen_sums_valid_ = false;
     }
     const bool mobile_only = frozen_sums_valid_;
     ++(mobile_only ? mobile_sorts_ : full_sorts_);
     const int m = mobile_only ? mobile_count_ : n_;
     const int keys = mobile_only ? ncells_ : cell_keys();
-    const int g = blocks_for(m);
-    cell_index_kernel<<<g, kBlock>>>(view(), m, cell_.get(), index_.get());
+    // The counting sort (cell_count_kernel): keys and ranks (in index_), the counts summed into
+    // cell_start, the particles into their cells' slots, then into index order within each cell.
+    cell_count_kernel<<<blocks_for(m), kBlock>>>(view(), m, cell_.get(), index_.get(),
+                                                 cell_count_.get());
     size_t temp = sort_temp_.size();
-    int bits = 1;
-    while ((1 << bits) < keys + 1) ++bits;
-    check(cub::DeviceRadixSort::SortPairs(sort_temp_.get(), temp, cell_.get(), cell_sorted_.get(),
-                                          index_.get(), perm_.get(), m, 0, bits),
-          "radix sort");
-    cell_start_kernel<<<blocks_for(keys + 1), kBlock>>>(cell_sorted_.get(), m, keys,
-                                                        cell_start_.get());
-    // The permutation of [0, m). The frozen part behind it never changes while its sums hold, so
-    // it is copied only until both buffers of each array hold it (the first sort after a full
-    // one).
-    permute_moved(m, mobile_only && !tail_pending_ ? m : n_);
+    check(cub::DeviceScan::ExclusiveSum(sort_temp_.get(), temp, cell_count_.get(),
+                                        cell_start_.get(), keys + 1),
+          "cell count sum");
+    cell_scatter_kernel<<<blocks_for(std::max(m, keys + 1)), kBlock>>>(
+        cell_.get(), index_.get(), m, cell_start_.get(), keys, cell_count_.get(),
+        cell_slots_.get());
+    // The frozen part behind the m sorted particles never changes while its sums hold, so it is
+    // copied only until both buffers of each array hold it (the first sort after a full one).
+    const int count = mobile_only && !tail_pending_ ? m : n_;
+    order_in_cell_kernel<<<blocks_for(count), kBlock>>>(
+        moved_table(), cell_.get(), cell_slots_.get(), m, count, cell_start_.get(), perm_.get());
+    swap_moved();
     tail_pending_ = !mobile_only;
     if (carry_forces)  // through x's second buffer, free after the permutation
       for (DeviceBuffer<Real>* a : {&fx_, &fy_, &fz_, &rho_, &bvf_})
@@ -1131,6 +1236,11 @@ class CudaEngine final : public Engine<Real>,
   // second buffer, then the two swap (every array is back in its own buffer after two sorts, which
   // lets a captured graph of an even number of steps be replayed).
   void permute_moved(int m, int count) {
+    permute_kernel<<<blocks_for(count), kBlock>>>(moved_table(), perm_.get(), m, count);
+    swap_moved();
+  }
+  // The arrays a sort moves, each with its second buffer; swap_moved makes the second the first.
+  PermuteTable<Real> moved_table() {
     PermuteTable<Real> t;
     const auto reals = moved_reals();
     for (size_t a = 0; a < reals.size(); ++a)
@@ -1142,7 +1252,10 @@ class CudaEngine final : public Engine<Real>,
     t.in_int[1] = origin_.get(), t.out_int[1] = origin_alt_.get();
     t.in_id = id_.get(), t.out_id = id_alt_.get();
     if (left_to_grid_on()) t.in_flag = left_to_grid_.get(), t.out_flag = left_to_grid_alt_.get();
-    permute_kernel<<<blocks_for(count), kBlock>>>(t, perm_.get(), m, count);
+    return t;
+  }
+  void swap_moved() {
+    const auto reals = moved_reals();
     for (size_t a = 0; a < reals.size(); ++a)
       if (reals[a]->size() > 0) reals[a]->swap(moved_alt_[a]);
     type_.swap(type_alt_);
@@ -1332,13 +1445,22 @@ class CudaEngine final : public Engine<Real>,
     for (DeviceBuffer<std::int64_t>* a : {&id_, &id_alt_}) a->set_size(s);
     if (left_to_grid_on())
       for (DeviceBuffer<std::uint8_t>* a : {&left_to_grid_, &left_to_grid_alt_}) a->set_size(s);
-    for (DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_}) a->set_size(s);
+    for (DeviceBuffer<int>* a : {&cell_, &cell_slots_, &index_, &perm_}) a->set_size(s);
     n_ = n;
+  }
+
+  // The cell sort's arrays that follow the cell grid: cell_start and the counts (keys + 1 each,
+  // the counts zero between sorts) and the counts' sum's scratch.
+  void size_cell_arrays() {
+    const size_t keys = static_cast<size_t>(cell_keys());
+    cell_start_.resize(keys + 1);
+    cell_count_.resize(keys + 1);
+    check(cudaMemset(cell_count_.get(), 0, (keys + 1) * sizeof(int)), "cell count reset");
     size_t temp = 0;
-    check(cub::DeviceRadixSort::SortPairs(nullptr, temp, cell_.get(), cell_sorted_.get(),
-                                          index_.get(), perm_.get(), n_),
-          "radix sort sizing");
-    if (temp > sort_temp_.size()) sort_temp_.set_size(temp);
+    check(cub::DeviceScan::ExclusiveSum(nullptr, temp, cell_count_.get(), cell_start_.get(),
+                                        static_cast<int>(keys + 1)),
+          "cell count sum sizing");
+    sort_temp_.resize(temp);
   }
 
  public:
@@ -1378,7 +1500,8 @@ class CudaEngine final : public Engine<Real>,
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
       b += a->size() * sizeof(std::int32_t);
     b += (id_.size() + id_alt_.size()) * sizeof(std::int64_t);
-    for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
+    for (const DeviceBuffer<int>* a : {&cell_, &cell_slots_, &index_, &perm_, &cell_start_,
+                                       &cell_count_, &lane_list_slots_, &lane_list_counts_})
       b += a->size() * sizeof(int);
     b += sort_temp_.size() + solid_.size() + left_to_grid_.size() + left_to_grid_alt_.size() +
          table_.size() * sizeof(PairParams<Real>) +
@@ -1431,7 +1554,8 @@ class CudaEngine final : public Engine<Real>,
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
       add(*a);
     add(id_), add(id_alt_);
-    for (const DeviceBuffer<int>* a : {&cell_, &cell_sorted_, &index_, &perm_, &cell_start_})
+    for (const DeviceBuffer<int>* a : {&cell_, &cell_slots_, &index_, &perm_, &cell_start_,
+                                       &cell_count_, &lane_list_slots_, &lane_list_counts_})
       add(*a);
     add(sort_temp_), add(table_), add(solid_), add(slab_bodies_), add(slab_partials_);
     add(left_to_grid_), add(left_to_grid_alt_);
@@ -1568,7 +1692,14 @@ class CudaEngine final : public Engine<Real>,
   DeviceBuffer<std::int32_t> type_alt_, origin_alt_;
   DeviceBuffer<std::int64_t> id_alt_;
   bool tail_pending_ = true;
-  DeviceBuffer<int> cell_, cell_sorted_, index_, perm_, cell_start_;
+  // The cell sort (cell_count_kernel): keys, ranks (and migration's scratch), particles by slot,
+  // the permutation, the cells' first slots and counts.
+  DeviceBuffer<int> cell_, cell_slots_, index_, perm_, cell_start_, cell_count_;
+  // The lanes' neighbour list (LaneList; small systems only), and whether the last sums pass
+  // wrote it for the storage as it is.
+  DeviceBuffer<int> lane_list_slots_, lane_list_counts_;
+  int lane_list_threads_ = 0;
+  bool lane_list_ready_ = false;
   DeviceBuffer<unsigned char> sort_temp_;
   DeviceBuffer<PairParams<Real>> table_;
   DeviceBuffer<Real> body_force_;
