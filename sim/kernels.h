@@ -260,6 +260,12 @@ MESO_HD MESO_INLINE void for_each_neighbour_stashed(const StepView<Real>& v, int
   for_each_neighbour(v, i, visit, Parts::All, lanes);
 #else
   const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
+  auto visit_stored = [&](int j) {
+    const Real dx = v.box.minimum_image(xi - v.x[j], 0);
+    const Real dy = v.box.minimum_image(yi - v.y[j], 1);
+    const Real dz = v.box.minimum_image(zi - v.z[j], 2);
+    visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+  };
   if constexpr (Lanes::kReplays) {
     // This lane's neighbours as the density pass found them, in its scan order: the same visits
     // as the scan, without it. A lane that found more than its list holds scans in place (the
@@ -269,24 +275,12 @@ MESO_HD MESO_INLINE void for_each_neighbour_stashed(const StepView<Real>& v, int
       for_each_neighbour(v, i, visit, Parts::All, lanes);
       return;
     }
-    for (int k = 0; k < recorded; ++k) {
-      const int j = lanes.recorded(k);
-      const Real dx = v.box.minimum_image(xi - v.x[j], 0);
-      const Real dy = v.box.minimum_image(yi - v.y[j], 1);
-      const Real dz = v.box.minimum_image(zi - v.z[j], 2);
-      visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
-    }
+    for (int k = 0; k < recorded; ++k) visit_stored(lanes.recorded(k));
     return;
   }
   int count = 0;
   auto flush = [&]() {
-    for (int k = 0; k < count; ++k) {
-      const int j = stash[k];
-      const Real dx = v.box.minimum_image(xi - v.x[j], 0);
-      const Real dy = v.box.minimum_image(yi - v.y[j], 1);
-      const Real dz = v.box.minimum_image(zi - v.z[j], 2);
-      visit(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
-    }
+    for (int k = 0; k < count; ++k) visit_stored(stash[k]);
     count = 0;
   };
   for_each_candidate(

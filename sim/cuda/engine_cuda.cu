@@ -210,13 +210,6 @@ __device__ MESO_INLINE NeighbourStash thread_stash() {
   return NeighbourStash{stash_slots + threadIdx.x, static_cast<int>(blockDim.x)};
 }
 
-// The same with the thread's neighbour stash: body(v, i, stash), launched with kStashBytes.
-template <class Real, class Body>
-__global__ void for_each_stashed_kernel(StepView<Real> v, Body body) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < v.n) body(v, i, thread_stash());
-}
-
 // L consecutive threads of a warp that share one particle's neighbour scan (OneLane in
 // sim/kernels.h): lane k takes every L-th candidate; sum() adds the lanes' partial sums with a
 // butterfly of shuffles, which gives every lane the same total in a fixed order.
@@ -296,11 +289,12 @@ __global__ void for_each_lanes_kernel(StepView<Real> v, Body body, LaneList list
   body(v, i, lanes);
   list.counts[t] = lanes.count;
 }
+// The force pass scanning, with the thread's neighbour stash (launched with kStashBytes).
 template <int L, class Real, class Body>
 __global__ void for_each_stashed_lanes_kernel(StepView<Real> v, Body body) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / L;
-  if (i < v.n) body(v, i, thread_stash(), LaneGroup<L>{t % L});
+  if (i < v.n) body(v, i, thread_stash(), lane_base<L>(t));
 }
 // The force pass over the list: no scan, so no stash (launched without shared memory).
 template <int L, class Real, class Body>
@@ -1086,26 +1080,21 @@ class CudaEngine final : public Engine<Real>,
       constexpr int L = decltype(lanes)::value;
       const int g = blocks_for(L * v.n);
       if (lane_list_ready_)
-        for_each_replaying_kernel<L><<<g, kBlock>>>(v, pass, lane_list_view());
-      else if constexpr (L == 1)
-        for_each_stashed_kernel<<<g, kBlock, kStashBytes>>>(v, pass);
+        for_each_replaying_kernel<L><<<g, kBlock>>>(v, pass, lane_list(L, v.n));
       else
         for_each_stashed_lanes_kernel<L><<<g, kBlock, kStashBytes>>>(v, pass);
     });
     lane_list_ready_ = false;
   }
   // The lanes' neighbour list (LaneList) for L lanes of n particles, grown when it must be (the
-  // first step of a run, before any graph is captured; a decomposed run's count changes).
+  // first step of a run, before any graph is captured; a decomposed run's count changes). The
+  // sums pass and the force pass after it ask with the same L and n, so they see one layout.
   LaneList lane_list(int lanes, int n) {
     const size_t threads = static_cast<size_t>(lanes) * static_cast<size_t>(n);
     const size_t capacity = static_cast<size_t>(lane_list_capacity(lanes));
     if (lane_list_counts_.size() < threads) lane_list_counts_.set_size(threads);
     if (lane_list_slots_.size() < threads * capacity) lane_list_slots_.set_size(threads * capacity);
-    lane_list_threads_ = static_cast<int>(threads);
-    return lane_list_view();
-  }
-  LaneList lane_list_view() {
-    return LaneList{lane_list_slots_.get(), lane_list_counts_.get(), lane_list_threads_};
+    return LaneList{lane_list_slots_.get(), lane_list_counts_.get(), static_cast<int>(threads)};
   }
   // Calls launch(L) with L, the threads per particle of the gather passes, as a compile-time
   // constant: SimulationOptions::lanes_per_particle, or by the particle count (sim/simulation.h).
@@ -1695,10 +1684,9 @@ class CudaEngine final : public Engine<Real>,
   // The cell sort (cell_count_kernel): keys, ranks (and migration's scratch), particles by slot,
   // the permutation, the cells' first slots and counts.
   DeviceBuffer<int> cell_, cell_slots_, index_, perm_, cell_start_, cell_count_;
-  // The lanes' neighbour list (LaneList; small systems only), and whether the last sums pass
-  // wrote it for the storage as it is.
+  // The neighbour list (LaneList), and whether the last sums pass wrote it for the storage as
+  // it is.
   DeviceBuffer<int> lane_list_slots_, lane_list_counts_;
-  int lane_list_threads_ = 0;
   bool lane_list_ready_ = false;
   DeviceBuffer<unsigned char> sort_temp_;
   DeviceBuffer<PairParams<Real>> table_;

@@ -2,6 +2,7 @@
 // without a CUDA build or device). Same precision on both sides.
 #include <gtest/gtest.h>
 
+#include <cassert>
 #include <cmath>
 
 #include "mesorock/errors.h"
@@ -18,25 +19,37 @@ struct Case {
   ms::ParticleSet particles;
 };
 
-// A fluid with a frozen wall slab, body force and thermostat: every pass variant's pieces.
-Case mixed_case(ms::Precision precision, ms::ConservativeKind kind, ms::DensityKernelKind kernel) {
+constexpr int kFluid = 0, kWall = 1;
+
+// The model of these cases: a fluid (type kFluid, driven along x) and a frozen wall (kWall), no
+// particles yet.
+Case fluid_and_wall(ms::Precision precision, std::uint64_t seed,
+                    ms::ConservativeKind kind = ms::ConservativeKind::MDPD,
+                    ms::DensityKernelKind kernel = ms::DensityKernelKind::Warren) {
   Case c;
   c.model.conservative = kind;
   c.model.density_kernel = kernel;
   c.model.precision = precision;
-  c.model.seed = 77;
+  c.model.seed = seed;
   const int fluid = c.model.add_type({"fluid", false, {0.02, 0, 0}});
   const int wall = c.model.add_type({"wall", true, {0, 0, 0}});
+  assert(fluid == kFluid && wall == kWall);
   const double B = kind == ms::ConservativeKind::MDPD ? 25 : 0;
   const double A = kind == ms::ConservativeKind::MDPD ? -40 : 25;
   c.model.set_pair(fluid, fluid, {A, B, 4.5});
   c.model.set_pair(fluid, wall, {A * 0.8, B, 4.5});
   c.model.set_pair(wall, wall, {A, B, 4.5});
+  return c;
+}
+
+// A fluid with a frozen wall slab, body force and thermostat: every pass variant's pieces.
+Case mixed_case(ms::Precision precision, ms::ConservativeKind kind, ms::DensityKernelKind kernel) {
+  Case c = fluid_and_wall(precision, 77, kind, kernel);
   c.box.hi = {12, 9, 10};
   c.box.periodic = {true, true, false};
   std::int64_t next = 0;
-  ms::fill_random(c.particles, fluid, {0, 0, 1}, {12, 9, 10}, 6000, 3, next);
-  ms::fill_lattice(c.particles, wall, {0, 0, 0}, {12, 9, 1}, 8, next);
+  ms::fill_random(c.particles, kFluid, {0, 0, 1}, {12, 9, 10}, 6000, 3, next);
+  ms::fill_lattice(c.particles, kWall, {0, 0, 0}, {12, 9, 1}, 8, next);
   ms::assign_maxwell_velocities(c.particles, c.model, 1.0, 3);
   return c;
 }
@@ -236,21 +249,13 @@ TEST_P(GpuVsCpu, LanesChangeOnlyTheOrderOfSums) {
 // corrector before the sort and the neighbour list over many steps. rho and phi every 10 steps
 // against the CPU's on the same positions; forces, corrections and trajectories over 20 steps.
 TEST_P(GpuVsCpu, ThickWallAgreesWithTheCpuStepAfterStep) {
-  Case c;
-  c.model.conservative = ms::ConservativeKind::MDPD;
-  c.model.precision = GetParam();
-  c.model.seed = 78;
+  Case c = fluid_and_wall(GetParam(), 78);
   c.model.wall_model.enabled = true;
-  const int fluid = c.model.add_type({"fluid", false, {0.02, 0, 0}});
-  const int wall = c.model.add_type({"wall", true, {0, 0, 0}});
-  c.model.set_pair(fluid, fluid, {-40, 25, 4.5});
-  c.model.set_pair(fluid, wall, {-32, 25, 4.5});
-  c.model.set_pair(wall, wall, {-40, 25, 4.5});
   c.box.hi = {9, 9, 12};
   c.box.periodic = {true, true, false};
   std::int64_t next = 0;
-  ms::fill_random(c.particles, fluid, {0, 0, 4}, {9, 9, 12}, 3600, 5, next);
-  ms::fill_lattice(c.particles, wall, {0, 0, 0}, {9, 9, 4}, 8, next);
+  ms::fill_random(c.particles, kFluid, {0, 0, 4}, {9, 9, 12}, 3600, 5, next);
+  ms::fill_lattice(c.particles, kWall, {0, 0, 0}, {9, 9, 4}, 8, next);
   ms::assign_maxwell_velocities(c.particles, c.model, 1.0, 5);
   ms::SimulationOptions gpu;
   gpu.backend = ms::BackendKind::CUDA;
@@ -281,15 +286,10 @@ TEST_P(GpuVsCpu, ThickWallAgreesWithTheCpuStepAfterStep) {
 // neighbour list holds for one thread (72 slots) or for each of 2, 4 and 8 lanes (40, 24, 16).
 // The lanes that overflow scan again in the force pass; the forces must still be the CPU's.
 TEST_P(GpuVsCpu, NeighbourListOverflowStillGivesTheForces) {
-  Case c;
-  c.model.conservative = ms::ConservativeKind::MDPD;
-  c.model.precision = GetParam();
-  c.model.seed = 79;
-  const int fluid = c.model.add_type({"fluid", false, {0, 0, 0}});
-  c.model.set_pair(fluid, fluid, {-40, 25, 4.5});
+  Case c = fluid_and_wall(GetParam(), 79);  // fluid only
   c.box.hi = {5, 5, 5};
   std::int64_t next = 0;
-  ms::fill_random(c.particles, fluid, {0, 0, 0}, {5, 5, 5}, 3750, 9, next);
+  ms::fill_random(c.particles, kFluid, {0, 0, 0}, {5, 5, 5}, 3750, 9, next);
   ms::assign_maxwell_velocities(c.particles, c.model, 1.0, 9);
   auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01);
   const auto fa = a->forces();
