@@ -130,6 +130,8 @@ CaseResult run_perm_slit_case(const ValidateOptions& o);
 CaseResult run_perm_tube_case(const ValidateOptions& o);
 CaseResult run_perm_sphere_array_case(const ValidateOptions& o);
 CaseResult run_darcy_linearity_case(const ValidateOptions& o);
+// The two-phase flow case (validation_relperm.cpp).
+CaseResult run_relperm_slit_case(const ValidateOptions& o);
 const ValidationCase* find_validation_case(const std::string& name);
 
 // Text table and the JSON object of the --json flag.

@@ -229,6 +229,10 @@ const std::vector<ValidationCase>& validation_cases() {
       {"darcy-linearity",
        "slit at three forces: flow rate linear in the gradient, intercept within 2 error bars of 0",
        run_darcy_linearity_case, 32.0, 1403},
+      {"relperm-slit",
+       "two liquids layered in a slit, W on the walls: kr_W and kr_N within 10% of the layered "
+       "Poiseuille curves",
+       run_relperm_slit_case, 129, 4630},
       {"flooding-mini",
        "2020 paper's flooding set-up in small: pistons push a working fluid through a grain "
        "block; recovery, no particle through a wall or slab",

@@ -53,11 +53,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace wall_liquid;
 
-// Slip length of the frozen-liquid wall (poiseuille-walls, full size): the no-slip surface lies
-// |b| inside the fluid.
-constexpr double kSlipLength = -0.069, kSlipLengthError = 0.010;
-constexpr double kWallThickness = 1.5;  // as in poiseuille-walls: more than rc of frozen liquid
-constexpr double kTolerance = 0.10;     // the issue: within 10%
+constexpr double kTolerance = 0.10;  // the issue: within 10%
 
 // 10% of the reference; at the small size widened by two standard errors of the measurement
 // (as poiseuille-walls does), because a CI-sized run's own statistical error (2-4%) is then a
@@ -181,23 +177,13 @@ CaseResult run_perm_slit(const ValidateOptions& o) {
   CaseResult r;
   r.name = "perm-slit";
   const bool full = o.size == CaseSize::Full;
-  const double h = full ? 16 : 6, Lxy = full ? 10 : 5, w = kWallThickness;
-  const double L[3] = {Lxy, Lxy, h + w};
-  const double z0 = 0.5 * w, z1 = L[2] - 0.5 * w;  // cut surfaces
+  const double h = full ? 16 : 6;
   const std::uint64_t settle = full ? 3000 : 1000, sample = full ? 60000 : 15000;
-  BuiltSystem s = liquid_with_walls(
-      L, {true, true, true}, [&](double, double, double z) { return std::max(z0 - z, z - z1); }, w,
-      500, 81, o);
-  const double h_eff = h + 2 * kSlipLength;
-  // Peak shear rate at the walls n g h / (2 mu) = 0.2 (Newtonian: docs/validation.md).
-  const double g = 0.2 * 2 * kBulkViscosity / (kRho * h_eff);
-  // Start from the no-slip profile so that no viscous start-up time (h^2 / nu) is needed.
-  for (size_t i = 0; i < s.particles.size(); ++i) {
-    if (s.particles.type[i] != 0) continue;
-    const double d = s.particles.z[i] - (z0 - kSlipLength);
-    s.particles.vx[i] += std::max(0.0, kRho * g / (2 * kBulkViscosity) * d * (h_eff - d));
-  }
-  const FlowRun f = measure_flow(s, 0, g, settle, sample, "perm-slit", o);
+  Slit slit = make_slit(h, full ? 10 : 5, 81, o);
+  const double g = slit.newtonian_force(), h_eff = slit.h_eff;
+  slit.start_on_profile(g);
+  const double* L = slit.L;
+  const FlowRun f = measure_flow(slit.system, 0, g, settle, sample, "perm-slit", o);
   const double area = L[0] * L[1];
   const Permeability k = permeability_of(f, area * h, area * h_eff, area * L[2]);
   const double reference = h_eff * h_eff / 12;
@@ -357,14 +343,12 @@ CaseResult run_darcy_linearity(const ValidateOptions& o) {
   CaseResult r;
   r.name = "darcy-linearity";
   const bool full = o.size == CaseSize::Full;
-  const double h = full ? 12 : 6, Lxy = full ? 8 : 4, w = kWallThickness;
-  const double L[3] = {Lxy, Lxy, h + w};
-  const double z0 = 0.5 * w, z1 = L[2] - 0.5 * w;
-  BuiltSystem s = liquid_with_walls(
-      L, {true, true, true}, [&](double, double, double z) { return std::max(z0 - z, z - z1); }, w,
-      500, 84, o);
-  const double h_eff = h + 2 * kSlipLength;
-  const double g_max = 0.2 * 2 * kBulkViscosity / (kRho * h_eff);  // peak shear rate 0.2
+  const double h = full ? 12 : 6;
+  const Slit slit = make_slit(h, full ? 8 : 4, 84, o);
+  const BuiltSystem& s = slit.system;
+  const double* L = slit.L;
+  const double h_eff = slit.h_eff;
+  const double g_max = slit.newtonian_force();  // peak shear rate 0.2
   SweepSample sample{s.model, s.box, s.particles};
   std::size_t fluid = 0;
   for (auto t : s.particles.type) fluid += t == 0;

@@ -42,4 +42,28 @@ BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& peri
   return s;
 }
 
+Slit make_slit(double h, double Lxy, std::uint64_t seed, const ValidateOptions& o) {
+  Slit s;
+  s.h = h;
+  s.h_eff = h + 2 * kSlipLength;
+  s.L[0] = s.L[1] = Lxy;
+  s.L[2] = h + kWallThickness;
+  s.z0 = 0.5 * kWallThickness;
+  s.z1 = s.L[2] - 0.5 * kWallThickness;
+  const double z0 = s.z0, z1 = s.z1;
+  s.system = liquid_with_walls(
+      s.L, {true, true, true}, [&](double, double, double z) { return std::max(z0 - z, z - z1); },
+      kWallThickness, 500, seed, o);
+  return s;
+}
+
+void Slit::start_on_profile(double g) {
+  sim::ParticleSet& p = system.particles;
+  for (size_t i = 0; i < p.size(); ++i) {
+    if (p.type[i] != 0) continue;
+    const double d = p.z[i] - (z0 - kSlipLength);
+    p.vx[i] += std::max(0.0, kRho * g / (2 * kBulkViscosity) * d * (h_eff - d));
+  }
+}
+
 }  // namespace mesorock::pipeline::wall_liquid

@@ -18,6 +18,11 @@ constexpr double kA = -40, kB = 25, kRd = 0.75, kGamma = 4.5, kRho = 7.0;
 // docs/validation.md): pooled over three forcings, 6.97 +- 0.057.
 constexpr double kBulkViscosity = 6.97, kBulkViscosityError = 0.057;
 
+// Slip length of the frozen-liquid wall (poiseuille-walls, full size): the no-slip surface lies
+// |b| inside the fluid.
+constexpr double kSlipLength = -0.069, kSlipLengthError = 0.010;
+constexpr double kWallThickness = 1.5;  // as in poiseuille-walls: more than rc of frozen liquid
+
 // Depth below the pore surface (> 0 inside the solid, <= 0 in the pore) of a point.
 using SolidDepth = std::function<double(double x, double y, double z)>;
 
@@ -27,5 +32,22 @@ using SolidDepth = std::function<double(double x, double y, double z)>;
 BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& periodic,
                               const SolidDepth& depth, double thickness, std::uint64_t equilibrate,
                               std::uint64_t seed, const ValidateOptions& o);
+
+// The slit of the permeability and two-phase cases: a gap of cut width h between the faces of
+// one periodic slab of frozen liquid (z periodic; the wall kWallThickness thick: z < w/2 and
+// z > h + w/2), Lxy wide along x and y (liquid_with_walls, 500 steps of equilibration).
+struct Slit {
+  BuiltSystem system;
+  double L[3] = {0, 0, 0};
+  double z0 = 0, z1 = 0;    // the cut surfaces
+  double h = 0, h_eff = 0;  // cut and hydrodynamic widths (h + 2 kSlipLength)
+  // The body force of a peak shear rate n g h_eff / (2 mu) = 0.2 at the walls (Newtonian:
+  // docs/validation.md).
+  double newtonian_force() const { return 0.2 * 2 * kBulkViscosity / (kRho * h_eff); }
+  // Adds the no-slip plane Poiseuille profile of force g to the fluid (type 0), so that no viscous
+  // start-up time (h^2 / nu) is needed.
+  void start_on_profile(double g);
+};
+Slit make_slit(double h, double Lxy, std::uint64_t seed, const ValidateOptions& o);
 
 }  // namespace mesorock::pipeline::wall_liquid
