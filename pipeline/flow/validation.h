@@ -130,8 +130,16 @@ CaseResult run_perm_slit_case(const ValidateOptions& o);
 CaseResult run_perm_tube_case(const ValidateOptions& o);
 CaseResult run_perm_sphere_array_case(const ValidateOptions& o);
 CaseResult run_darcy_linearity_case(const ValidateOptions& o);
-// The two-phase flow case (validation_relperm.cpp).
+// The two-phase flow case (validation_relperm.cpp) and the capillary pressure case
+// (validation_capillary.cpp).
 CaseResult run_relperm_slit_case(const ValidateOptions& o);
+CaseResult run_laplace_cylinder_case(const ValidateOptions& o);
+// Sum of the interface tensions of a film that is flat in y-z, from one stress sample:
+// Lx (s_xx - (s_yy + s_zz) / 2) = integral over x of (p_N - p_T). The kinetic and conservative
+// parts carry the tension; the dissipative and random virials average to zero at equilibrium
+// (no flow) and only add noise, so they are left out (the same definition as Groot & Warren's
+// pressure, which the eos cases use). validation_two_fluid.cpp.
+double tension_sum(const sim::StressSample& st, double Lx);
 const ValidationCase* find_validation_case(const std::string& name);
 
 // Text table and the JSON object of the --json flag.

@@ -233,6 +233,10 @@ const std::vector<ValidationCase>& validation_cases() {
        "two liquids layered in a slit, W on the walls: kr_W and kr_N within 10% of the layered "
        "Poiseuille curves",
        run_relperm_slit_case, 129, 4630},
+      {"laplace-cylinder",
+       "an N cylinder in W: the pressure jump against Young-Laplace gamma / R within 10%, gamma "
+       "from a flat interface in the same box",
+       run_laplace_cylinder_case, 190, 13550},
       {"flooding-mini",
        "2020 paper's flooding set-up in small: pistons push a working fluid through a grain "
        "block; recovery, no particle through a wall or slab",

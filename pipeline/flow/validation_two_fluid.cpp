@@ -22,6 +22,13 @@
 
 namespace mesorock::pipeline {
 
+double tension_sum(const sim::StressSample& st, double Lx) {
+  double s[3];
+  for (int a = 0; a < 3; ++a)
+    s[a] = st.kinetic[static_cast<size_t>(a)] + st.conservative[static_cast<size_t>(a)];
+  return Lx * (s[0] - 0.5 * (s[1] + s[2]));
+}
+
 namespace {
 
 using wall_liquid::kA;
@@ -37,18 +44,6 @@ using Clock = std::chrono::steady_clock;
 // Coexistence density of the A = -40 liquid with its vapour (docs/physics.md; the slab case
 // measures 6.069 at full size).
 constexpr double kLiquidDensity = 6.07;
-
-// Sum of the interface tensions of a film that is flat in y-z, from one stress sample:
-// Lx (s_xx - (s_yy + s_zz) / 2) = integral over x of (p_N - p_T). The kinetic and conservative
-// parts carry the tension; the dissipative and random virials average to zero at equilibrium
-// (no flow) and only add noise, so they are left out (the same definition as Groot & Warren's
-// pressure, which the eos cases use).
-double tension_sum(const sim::StressSample& st, double Lx) {
-  double s[3];
-  for (int a = 0; a < 3; ++a)
-    s[a] = st.kinetic[static_cast<size_t>(a)] + st.conservative[static_cast<size_t>(a)];
-  return Lx * (s[0] - 0.5 * (s[1] + s[2]));
-}
 
 // Circular mean along axis 0 of a count field (bins x fastest), as a bin offset from the grid's
 // lower edge in bins, in [0, nx).
