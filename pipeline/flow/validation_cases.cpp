@@ -237,6 +237,10 @@ const std::vector<ValidationCase>& validation_cases() {
        "an N cylinder in W: the pressure jump against Young-Laplace gamma / R within 10%, gamma "
        "from a flat interface in the same box",
        run_laplace_cylinder_case, 190, 13550},
+      {"capillary-slit",
+       "an N plug in a W-filled slit whose wall is W to N (theta = 0): the pressure jump against "
+       "gamma / (h / 2) within 10%",
+       run_capillary_slit_case, 250, 9000},
       {"flooding-mini",
        "2020 paper's flooding set-up in small: pistons push a working fluid through a grain "
        "block; recovery, no particle through a wall or slab",
