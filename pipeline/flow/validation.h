@@ -141,6 +141,10 @@ CaseResult run_capillary_slit_case(const ValidateOptions& o);
 // (no flow) and only add noise, so they are left out (the same definition as Groot & Warren's
 // pressure, which the eos cases use). validation_two_fluid.cpp.
 double tension_sum(const sim::StressSample& st, double Lx);
+// Circular mean along axis 0 of a count field (bins x fastest; count of bin b of row r at
+// counts[(r nx + b) stride]), as a bin offset from the grid's lower edge in bins, in [0, nx).
+// validation_two_fluid.cpp.
+double circular_centre_bins(const std::vector<double>& counts, int nx, int nrest, int stride);
 const ValidationCase* find_validation_case(const std::string& name);
 
 // Text table and the JSON object of the --json flag.

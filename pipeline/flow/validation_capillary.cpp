@@ -35,7 +35,6 @@ using Clock = std::chrono::steady_clock;
 using namespace wall_liquid;
 
 constexpr int kW = 0, kN = 1;
-constexpr double kAWN = -30;  // as relperm-slit
 constexpr double kTolerance = 0.10;
 
 struct CapillaryGeometry {
@@ -66,32 +65,15 @@ BuiltSystem two_liquids(const CapillaryGeometry& g, std::uint64_t seed, const Va
     sim->run(500);
     s.particles = sim->particles();
   }
-  s.model.add_type({"N", false, {0, 0, 0}});
-  s.model.set_pair(kN, kN, {kA, kB, kGamma});
-  s.model.set_pair(kW, kN, {kAWN, kB, kGamma});
+  if (add_second_liquid(s.model, kAWN) != kN)
+    throw ConfigError("laplace-cylinder: the second liquid is not type 1");
   return s;
-}
-
-// The circular mean of the N particles' position along axis a (0 or 2), from counts on an
-// nb x 1 x nb grid (x fastest).
-double circular_centre(const std::vector<double>& sums, int nb, int axis, double L) {
-  double c = 0, s = 0;
-  for (int k = 0; k < nb; ++k)
-    for (int i = 0; i < nb; ++i) {
-      const double n = sums[static_cast<size_t>(k * nb + i) * sim::kBinFields + sim::kBinCount];
-      const double angle = 2 * M_PI * ((axis == 0 ? i : k) + 0.5) / nb;
-      c += n * std::cos(angle);
-      s += n * std::sin(angle);
-    }
-  double a = std::atan2(s, c);
-  if (a < 0) a += 2 * M_PI;
-  return a / (2 * M_PI) * L;
 }
 
 struct CylinderRun {
   MeanWithError dp, p_in, p_out, n_in;
   double radius = 0, radius_error = 0;  // equimolar
-  double drift = 0;                     // largest distance of the centre from the box's
+  double drift = 0;                     // the centre's largest distance from the box's middle
   std::size_t n_count = 0;
 };
 
@@ -115,12 +97,11 @@ CylinderRun measure_cylinder(const BuiltSystem& base, const CapillaryGeometry& g
                   std::to_string(r.n_count) + " N), " + std::to_string(g.settle) + " + " +
                   std::to_string(g.sample) + " steps (" + sim->backend_name() + ")");
   sim->run(g.settle);
+  // The N counts along x and along z, whose circular means place the cylinder's centre.
   const int nb = static_cast<int>(std::lround(g.L));
-  sim::BinGrid counts;
-  counts.cells = {nb, 1, nb};
-  counts.lo = {0, 0, 0};
-  counts.hi = {g.L, g.Ly, g.L};
-  counts.type_mask = 1u << kN;
+  sim::BinGrid along[2] = {sim::BinGrid::profile(0, nb, {0, 0, 0}, {g.L, g.Ly, g.L}),
+                           sim::BinGrid::profile(2, nb, {0, 0, 0}, {g.L, g.Ly, g.L})};
+  for (sim::BinGrid& a : along) a.type_mask = 1u << kN;
   sim::RegionSelection strip_x, strip_z;
   strip_x.lo = {0, 0, 0};
   strip_x.hi = {g.strip, g.Ly, g.L};
@@ -130,8 +111,10 @@ CylinderRun measure_cylinder(const BuiltSystem& base, const CapillaryGeometry& g
   std::vector<double> dp, p_in, p_out, n_in;
   for (std::uint64_t k = 0; k < g.sample / g.every; ++k) {
     sim->run(g.every);
-    const auto sums = sim->bin_sums(counts);
-    const double cx = circular_centre(sums, nb, 0, g.L), cz = circular_centre(sums, nb, 2, g.L);
+    const double cx =
+        circular_centre_bins(sim->bin_sums(along[0]), nb, 1, sim::kBinFields) * g.L / nb;
+    const double cz =
+        circular_centre_bins(sim->bin_sums(along[1]), nb, 1, sim::kBinFields) * g.L / nb;
     r.drift = std::max({r.drift, std::abs(cx - c0), std::abs(cz - c0)});
     if (cx - half < g.strip || cx + half > g.L - g.strip || cz - half < g.strip ||
         cz + half > g.L - g.strip)
@@ -233,16 +216,13 @@ CaseResult run_capillary_slit_case(const ValidateOptions& o) {
   seed += 2;
   Slit slit = make_slit(h, Lxy, seed++, o);
   BuiltSystem& s = slit.system;
-  constexpr int kSW = 0, kWall = 1, kSN = 2;
-  s.model.add_type({"N", false, {0, 0, 0}});
-  s.model.set_pair(kSN, kSN, {kA, kB, kGamma});
-  s.model.set_pair(kSW, kSN, {kAWN, kB, kGamma});
-  s.model.set_pair(kWall, kSN, {kAWN, kB, kGamma});
+  constexpr int kSW = 0, kWall = 1;
+  const int n_type = add_second_liquid(s.model, kAWN, kWall, kAWN);
   s.model.seed = seed++;
   std::size_t plug = 0;
   for (size_t i = 0; i < s.particles.size(); ++i)
     if (s.particles.type[i] == kSW && s.particles.x[i] < Lxy / 2) {
-      s.particles.type[i] = kSN;
+      s.particles.type[i] = n_type;
       ++plug;
     }
   auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
@@ -254,22 +234,15 @@ CaseResult run_capillary_slit_case(const ValidateOptions& o) {
   sim->run(g.settle);
   const int nb = static_cast<int>(std::lround(Lxy));
   sim::BinGrid counts = sim::BinGrid::profile(0, nb, {0, 0, 0}, {Lxy, Lxy, slit.L[2]});
-  counts.type_mask = 1u << kSN;
+  counts.type_mask = 1u << n_type;
   const double zm = slit.L[2] / 2;
   const std::array<double, 2> ys{0, Lxy}, zs{zm - half, zm + half};
   std::vector<double> dp, p_in, p_out;
   double first = 0, drift = 0;
   for (std::uint64_t k = 0; k < g.sample / g.every; ++k) {
     sim->run(g.every);
-    const auto sums = sim->bin_sums(counts);
-    double c = 0, sn = 0;
-    for (int b = 0; b < nb; ++b) {
-      const double n = sums[static_cast<size_t>(b) * sim::kBinFields + sim::kBinCount];
-      c += n * std::cos(2 * M_PI * (b + 0.5) / nb);
-      sn += n * std::sin(2 * M_PI * (b + 0.5) / nb);
-    }
-    double cx = std::atan2(sn, c) / (2 * M_PI) * Lxy;
-    if (cx < 0) cx += Lxy;
+    const double cx =
+        circular_centre_bins(sim->bin_sums(counts), nb, 1, sim::kBinFields) * Lxy / nb;
     if (k == 0) first = cx;
     drift = std::max(drift, std::abs(std::remainder(cx - first, Lxy)));
     const double in = pressure_across(*sim, cx - half, cx + half, Lxy, ys, zs);

@@ -43,7 +43,7 @@ using Clock = std::chrono::steady_clock;
 using namespace wall_liquid;
 
 constexpr int kW = 0, kWall = 1, kN = 2;
-constexpr double kAWN = -30, kASN = -20;
+constexpr double kASN = -20;
 constexpr double kTolerance = 0.10;  // the issue: within 10% of the analytic curves
 
 // Layered Poiseuille relative permeabilities (above) for a wetting share S of the half gap.
@@ -182,10 +182,8 @@ CaseResult run_relperm_slit_case(const ValidateOptions& o) {
   slit.start_on_profile(g);
   BuiltSystem& base = slit.system;
   const double z0 = slit.z0, z1 = slit.z1;
-  base.model.add_type({"nonwetting", false, {0, 0, 0}});
-  base.model.set_pair(kN, kN, {kA, kB, kGamma});
-  base.model.set_pair(kW, kN, {kAWN, kB, kGamma});
-  base.model.set_pair(kWall, kN, {kASN, kB, kGamma});
+  if (add_second_liquid(base.model, kAWN, kWall, kASN) != kN)
+    throw ConfigError("relperm-slit: the second liquid is not type 2");
   std::uint64_t seed = 92 + o.seed_offset;
   base.model.seed = seed++;
   const CoFlow single = measure_co_flow(base, g, settle, sample, "relperm-slit single phase", o);

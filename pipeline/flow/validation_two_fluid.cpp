@@ -29,6 +29,20 @@ double tension_sum(const sim::StressSample& st, double Lx) {
   return Lx * (s[0] - 0.5 * (s[1] + s[2]));
 }
 
+double circular_centre_bins(const std::vector<double>& counts, int nx, int nrest, int stride) {
+  double c = 0, s = 0;
+  for (int r = 0; r < nrest; ++r)
+    for (int b = 0; b < nx; ++b) {
+      const double n = counts[static_cast<size_t>((r * nx + b) * stride)];
+      const double angle = 2 * M_PI * (b + 0.5) / nx;
+      c += n * std::cos(angle);
+      s += n * std::sin(angle);
+    }
+  double centre = std::atan2(s, c) / (2 * M_PI) * nx;
+  if (centre < 0) centre += nx;
+  return centre;
+}
+
 namespace {
 
 using wall_liquid::kA;
@@ -44,22 +58,6 @@ using Clock = std::chrono::steady_clock;
 // Coexistence density of the A = -40 liquid with its vapour (docs/physics.md; the slab case
 // measures 6.069 at full size).
 constexpr double kLiquidDensity = 6.07;
-
-// Circular mean along axis 0 of a count field (bins x fastest), as a bin offset from the grid's
-// lower edge in bins, in [0, nx).
-double circular_centre_bins(const std::vector<double>& counts, int nx, int nrest, int stride) {
-  double c = 0, s = 0;
-  for (int r = 0; r < nrest; ++r)
-    for (int b = 0; b < nx; ++b) {
-      const double n = counts[static_cast<size_t>((r * nx + b) * stride)];
-      const double angle = 2 * M_PI * (b + 0.5) / nx;
-      c += n * std::cos(angle);
-      s += n * std::sin(angle);
-    }
-  double centre = std::atan2(s, c) / (2 * M_PI) * nx;
-  if (centre < 0) centre += nx;
-  return centre;
-}
 
 // --------------------------------------------------------------------------------------------
 // interfacial-tension: a W slab and an N slab side by side in a periodic box elongated in x,

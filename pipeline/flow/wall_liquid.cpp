@@ -42,6 +42,14 @@ BuiltSystem liquid_with_walls(const double L[3], const std::array<bool, 3>& peri
   return s;
 }
 
+int add_second_liquid(sim::Model& model, double A_WN, int wall_type, double A_SN) {
+  const int n = model.add_type({"N", false, {0, 0, 0}});
+  model.set_pair(n, n, {kA, kB, kGamma});
+  model.set_pair(0, n, {A_WN, kB, kGamma});
+  if (wall_type >= 0) model.set_pair(wall_type, n, {A_SN, kB, kGamma});
+  return n;
+}
+
 Slit make_slit(double h, double Lxy, std::uint64_t seed, const ValidateOptions& o) {
   Slit s;
   s.h = h;

@@ -23,6 +23,15 @@ constexpr double kBulkViscosity = 6.97, kBulkViscosityError = 0.057;
 constexpr double kSlipLength = -0.069, kSlipLengthError = 0.010;
 constexpr double kWallThickness = 1.5;  // as in poiseuille-walls: more than rc of frozen liquid
 
+// The two-liquid cases' cross repulsion (relperm-slit, laplace-cylinder, capillary-slit): W and N
+// immiscible, gamma_WN = 6.79 at coexistence with vacuum (interfacial-tension) and 10.0 at the
+// liquid's density 7 (laplace-cylinder). relperm-slit says why not the stronger -20.
+constexpr double kAWN = -30;
+
+// Adds N, a second liquid that differs from type 0 (W) only by the cross repulsion A_WN, and, when
+// wall_type >= 0, meets that wall with A_SN; returns N's type.
+int add_second_liquid(sim::Model& model, double A_WN, int wall_type = -1, double A_SN = 0);
+
 // Depth below the pore surface (> 0 inside the solid, <= 0 in the pore) of a point.
 using SolidDepth = std::function<double(double x, double y, double z)>;
 

@@ -42,15 +42,22 @@ Case fluid_and_wall(ms::Precision precision, std::uint64_t seed,
   return c;
 }
 
+// A box lx x ly x lz, periodic in x and y, with a frozen wall lattice (density 8) in z below
+// `wall` and `fluid` particles at random above it; positions and velocities from `seed`.
+void fill_over_wall(Case& c, double lx, double ly, double lz, double wall, std::int64_t fluid,
+                    std::uint64_t seed) {
+  c.box.hi = {lx, ly, lz};
+  c.box.periodic = {true, true, false};
+  std::int64_t next = 0;
+  ms::fill_random(c.particles, kFluid, {0, 0, wall}, {lx, ly, lz}, fluid, seed, next);
+  ms::fill_lattice(c.particles, kWall, {0, 0, 0}, {lx, ly, wall}, 8, next);
+  ms::assign_maxwell_velocities(c.particles, c.model, 1.0, seed);
+}
+
 // A fluid with a frozen wall slab, body force and thermostat: every pass variant's pieces.
 Case mixed_case(ms::Precision precision, ms::ConservativeKind kind, ms::DensityKernelKind kernel) {
   Case c = fluid_and_wall(precision, 77, kind, kernel);
-  c.box.hi = {12, 9, 10};
-  c.box.periodic = {true, true, false};
-  std::int64_t next = 0;
-  ms::fill_random(c.particles, kFluid, {0, 0, 1}, {12, 9, 10}, 6000, 3, next);
-  ms::fill_lattice(c.particles, kWall, {0, 0, 0}, {12, 9, 1}, 8, next);
-  ms::assign_maxwell_velocities(c.particles, c.model, 1.0, 3);
+  fill_over_wall(c, 12, 9, 10, 1, 6000, 3);
   return c;
 }
 
@@ -251,17 +258,13 @@ TEST_P(GpuVsCpu, LanesChangeOnlyTheOrderOfSums) {
 TEST_P(GpuVsCpu, ThickWallAgreesWithTheCpuStepAfterStep) {
   Case c = fluid_and_wall(GetParam(), 78);
   c.model.wall_model.enabled = true;
-  c.box.hi = {9, 9, 12};
-  c.box.periodic = {true, true, false};
-  std::int64_t next = 0;
-  ms::fill_random(c.particles, kFluid, {0, 0, 4}, {9, 9, 12}, 3600, 5, next);
-  ms::fill_lattice(c.particles, kWall, {0, 0, 0}, {9, 9, 4}, 8, next);
-  ms::assign_maxwell_velocities(c.particles, c.model, 1.0, 5);
+  fill_over_wall(c, 9, 9, 12, 4, 3600, 5);
   ms::SimulationOptions gpu;
   gpu.backend = ms::BackendKind::CUDA;
   auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, gpu);
   const double tol = GetParam() == ms::Precision::Single ? 2e-4 : 1e-10;
-  // Every 10 steps: the GPU's sums, kept and skipped, against the CPU's on the same positions.
+  // Every 10 steps: the GPU's sums (the frozen part's kept ones among them) against the CPU's on
+  // the same positions.
   for (int round = 0; round < 3; ++round) {
     auto a = ms::make_simulation(c.model, c.box, b->particles(), 0.01);
     const auto ra = a->densities(), rb = b->densities();
