@@ -9,65 +9,13 @@
 #include <string>
 #include <vector>
 
+#include "mesorock/distance_transform.h"
 #include "mesorock/errors.h"
 #include "voxel/pore_analysis.h"
 #include "voxel/segment.h"
 
 namespace mesorock::voxel {
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// Scratch of one 1-D transform.
-struct LineScratch {
-  std::vector<double> f;
-  std::vector<std::int64_t> v;  // parabola apexes of the lower envelope
-  std::vector<double> z;        // boundaries between them
-  void reserve(std::int64_t n) {
-    f.resize(static_cast<std::size_t>(n));
-    v.resize(static_cast<std::size_t>(n));
-    z.resize(static_cast<std::size_t>(n + 1));
-  }
-};
-
-// In place along one line of n values at `stride`: d(q) = min_p ((q - p) h)^2 + f(p), the lower
-// envelope of parabolas rooted at the finite values (Felzenszwalb and Huttenlocher 2012), with
-// sample spacing h. All-infinite lines stay infinite.
-void transform_line(float* line, std::int64_t n, std::int64_t stride, double h, LineScratch& s) {
-  for (std::int64_t q = 0; q < n; ++q) {
-    s.f[static_cast<std::size_t>(q)] = static_cast<double>(line[q * stride]);
-  }
-  std::int64_t k = -1;
-  for (std::int64_t q = 0; q < n; ++q) {
-    const double fq = s.f[static_cast<std::size_t>(q)];
-    if (std::isinf(fq)) continue;
-    const double pq = double(q) * h;
-    double boundary = -kInf;
-    while (k >= 0) {
-      const std::int64_t p = s.v[static_cast<std::size_t>(k)];
-      const double pp = double(p) * h;
-      boundary = ((fq + pq * pq) - (s.f[static_cast<std::size_t>(p)] + pp * pp)) / (2 * (pq - pp));
-      if (boundary <= s.z[static_cast<std::size_t>(k)]) {
-        --k;
-      } else {
-        break;
-      }
-    }
-    ++k;
-    s.v[static_cast<std::size_t>(k)] = q;
-    s.z[static_cast<std::size_t>(k)] = k == 0 ? -kInf : boundary;
-    s.z[static_cast<std::size_t>(k + 1)] = kInf;
-  }
-  if (k < 0) return;
-  std::int64_t j = 0;
-  for (std::int64_t q = 0; q < n; ++q) {
-    const double pq = double(q) * h;
-    while (s.z[static_cast<std::size_t>(j + 1)] < pq) ++j;
-    const std::int64_t p = s.v[static_cast<std::size_t>(j)];
-    const double d = pq - double(p) * h;
-    line[q * stride] = static_cast<float>(d * d + s.f[static_cast<std::size_t>(p)]);
-  }
-}
 
 struct Centre {
   std::int32_t z, y, x;
@@ -110,22 +58,23 @@ Volume squared_pore_distance(const Volume& labels) {
       });
   // y: per z slice, the columns.
   tbb::parallel_for(std::int64_t(0), s.nz, [&](std::int64_t z) {
-    LineScratch scratch;
+    DistanceLineScratch scratch;
     scratch.reserve(s.ny);
     float* slice = d + z * s.ny * s.nx;
-    for (std::int64_t x = 0; x < s.nx; ++x) transform_line(slice + x, s.ny, s.nx, sp.dy, scratch);
+    for (std::int64_t x = 0; x < s.nx; ++x)
+      squared_distance_line(slice + x, s.ny, s.nx, sp.dy, scratch);
   });
   // z: per y, the (z, x) plane copied into a compact buffer so that the lines along z read
   // neighbouring memory.
   tbb::parallel_for(std::int64_t(0), s.ny, [&](std::int64_t y) {
-    LineScratch scratch;
+    DistanceLineScratch scratch;
     scratch.reserve(s.nz);
     std::vector<float> plane(static_cast<std::size_t>(s.nz * s.nx));
     for (std::int64_t z = 0; z < s.nz; ++z) {
       std::copy_n(d + (z * s.ny + y) * s.nx, s.nx, plane.data() + z * s.nx);
     }
     for (std::int64_t x = 0; x < s.nx; ++x) {
-      transform_line(plane.data() + x, s.nz, s.nx, sp.dz, scratch);
+      squared_distance_line(plane.data() + x, s.nz, s.nx, sp.dz, scratch);
     }
     for (std::int64_t z = 0; z < s.nz; ++z) {
       std::copy_n(plane.data() + z * s.nx, s.nx, d + (z * s.ny + y) * s.nx);

@@ -6,6 +6,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "sim/domain/communicator.h"
 #include "sim/simulation.h"
@@ -35,6 +36,10 @@ sim::SimulationOptions solver_options(const SolverFlags& flags,
 // Fails with one line when `so` asks for CUDA and none is usable.
 void require_device(const sim::SimulationOptions& so);
 
+// "0.1,0.2" -> {0.1, 0.2}; an empty item or a word is a ConfigError naming `what` (e.g.
+// "sweep: --forces").
+std::vector<double> parse_number_list(const std::string& text, const std::string& what);
+
 struct FlowCommand {
   CLI::App* app = nullptr;
   // Runs the parsed command; returns the exit code (errors are thrown, pipeline/exit_codes.h).
@@ -46,6 +51,7 @@ FlowCommand add_validate_command(CLI::App& rockflow);    // validate_command.cpp
 FlowCommand add_sweep_command(CLI::App& rockflow);       // sweep_command.cpp
 FlowCommand add_bench_command(CLI::App& rockflow);       // bench_command.cpp
 FlowCommand add_lbm_command(CLI::App& rockflow);         // lbm_command.cpp
+FlowCommand add_relperm_command(CLI::App& rockflow);     // relperm_command.cpp
 FlowCommand add_study_flow_command(CLI::App& rockflow);  // study.cpp's command, with the flags
 
 }  // namespace mesorock::pipeline

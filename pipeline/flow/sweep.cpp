@@ -6,6 +6,7 @@
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <tuple>
 
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
@@ -43,8 +44,8 @@ void check_forces(const std::string& where, const std::vector<double>& forces) {
                         " is given twice (each point needs its own force)");
 }
 
-void check_options(const SweepSample& s, const SweepOptions& o) {
-  check_forces("sweep", o.forces);
+// Everything but the force list.
+void check_point_options(const SweepSample& s, const SweepOptions& o) {
   if (o.axis < 0 || o.axis > 2) throw ConfigError("sweep: the flow axis must be x, y or z");
   if (o.driven_types == 0) throw ConfigError("sweep: no driven type");
   for (int t = 0; t < s.model.ntypes(); ++t) {
@@ -70,6 +71,14 @@ void check_options(const SweepSample& s, const SweepOptions& o) {
     throw ConfigError(
         "sweep: max steps " + std::to_string(o.max_steps) +
         " is less than warm-up + (2 window + measure) blocks = " + std::to_string(least));
+  for (std::uint32_t phase : o.phases)
+    if (phase == 0 || (phase & ~o.driven_types) != 0)
+      throw ConfigError("sweep: a measured phase must be a non-empty set of driven types");
+}
+
+void check_options(const SweepSample& s, const SweepOptions& o) {
+  check_forces("sweep", o.forces);
+  check_point_options(s, o);
 }
 
 double mean_of(const std::vector<double>& v, size_t from, size_t to) {
@@ -97,21 +106,59 @@ std::string fmt(double v, int precision = 4) {
 struct SweepPlan {
   std::vector<double> forces;  // ascending
   double volume = 0;
-  sim::BinGrid whole;  // one bin over the box, driven types only: its sum v is V J
+  sim::BinGrid whole;                // one bin over the box, driven types only: its sum v is V J
+  std::vector<sim::BinGrid> phases;  // the same bin for each measured phase's types
   size_t axis = 0;
   std::uint64_t least_blocks = 0;
 };
 
-// Point k of the sweep, from the particles `from`; `final_state`, when given, receives its last
-// particles (the next chained point's start). `phases`: the point may name what it does on the
-// progress line (false when points run side by side).
+SweepPlan make_plan(const SweepSample& sample, const SweepOptions& o) {
+  SweepPlan plan;
+  plan.forces = o.forces;
+  std::sort(plan.forces.begin(), plan.forces.end());
+  plan.volume = sample.box.volume();
+  plan.whole.lo = sample.box.lo;
+  plan.whole.hi = sample.box.hi;
+  plan.whole.type_mask = o.driven_types;
+  for (std::uint32_t phase : o.phases) {
+    plan.phases.push_back(plan.whole);
+    plan.phases.back().type_mask = phase;
+  }
+  plan.axis = static_cast<size_t>(o.axis);
+  plan.least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
+  return plan;
+}
+
+// Whether the last 2 window blocks of J agree: the means of the two halves within the tolerance
+// (relative) or within two combined standard errors.
+bool halves_agree(const std::vector<double>& J, size_t w, double tolerance) {
+  const size_t n = J.size();
+  if (n < 2 * w) return false;
+  const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
+  const double noise =
+      2 * std::hypot(standard_error(J, n - 2 * w, n - w), standard_error(J, n - w, n));
+  return std::abs(m2 - m1) <= std::max(tolerance * std::abs(m2), noise);
+}
+
+// The relative change of J[from, to) across its blocks (least-squares trend) and its error.
+std::pair<double, double> drift_of(const std::vector<double>& J, size_t from, size_t to,
+                                   double mean) {
+  const Trend t = trend_of(J, from, to);
+  const double blocks = static_cast<double>(to - from);
+  if (mean == 0) return {0.0, 0.0};
+  return {t.slope * blocks / mean, std::abs(t.slope_error * blocks / mean)};
+}
+
+// One point: `from` driven by `force` with the model's seed `seed`; `final_state`, when given,
+// receives its last particles (the next chained point's start). `phases`: the point may name
+// what it does on the progress line (false when points run side by side).
 SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const SweepPlan& plan,
-                     size_t k, const sim::ParticleSet& from,
-                     const sim::SimulationOptions& sim_options, bool phases,
-                     sim::ParticleSet* final_state) {
+                     double force, std::uint64_t seed, const std::string& label,
+                     const sim::ParticleSet& from, const sim::SimulationOptions& sim_options,
+                     bool phases, sim::ParticleSet* final_state) {
   phases = phases && o.meter;
   SweepPoint p;
-  p.force = plan.forces[k];
+  p.force = force;
   p.gradient = o.fluid_density * p.force;
   sim::Model model = sample.model;
   for (int t = 0; t < model.ntypes(); ++t)
@@ -119,43 +166,52 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
       model.types[static_cast<size_t>(t)].body_force = {0, 0, 0};
       model.types[static_cast<size_t>(t)].body_force[plan.axis] = p.force;
     }
-  model.seed = sample.model.seed + k;  // independent thermal noise at each point
+  model.seed = seed;
+  p.phases.resize(plan.phases.size());
   const auto t_point = std::chrono::steady_clock::now();
   auto sim = sim::make_simulation(model, sample.box, from, o.dt, sim_options);
-  const std::string label = "point " + std::to_string(k + 1) + "/" +
-                            std::to_string(plan.forces.size()) + " g = " + fmt(p.force, 3);
   if (phases) o.meter->set_phase(label + ": warm-up");
   sim->run(o.warmup_steps);
   p.steps = o.warmup_steps;
   std::vector<double>& J = p.block_flux;
   size_t measure_from = 0;
   const std::uint64_t per_block = o.block_steps / o.sample_every;
+  // Every measured series: the total flux and each phase's.
+  std::vector<std::vector<double>*> series{&J};
+  for (PhaseFlux& f : p.phases) series.push_back(&f.block_flux);
+  auto all_steady = [&] {
+    for (const auto* v : series)
+      if (!halves_agree(*v, static_cast<size_t>(o.window), o.tolerance)) return false;
+    return true;
+  };
+  auto any_trend = [&](size_t from) {
+    for (const auto* v : series)
+      if (trend_of(*v, from, v->size()).significant()) return true;
+    return false;
+  };
+  std::vector<double> sums(series.size());
   while (true) {
-    double sum = 0;
+    std::fill(sums.begin(), sums.end(), 0.0);
     for (std::uint64_t s = 0; s < per_block; ++s) {
       sim->run(o.sample_every);
-      sum += sim->bin_sums(plan.whole)[sim::kBinVx + plan.axis] / plan.volume;
+      sums[0] += sim->bin_sums(plan.whole)[sim::kBinVx + plan.axis] / plan.volume;
+      for (size_t f = 0; f < plan.phases.size(); ++f)
+        sums[f + 1] += sim->bin_sums(plan.phases[f])[sim::kBinVx + plan.axis] / plan.volume;
     }
-    J.push_back(sum / static_cast<double>(per_block));
+    for (size_t f = 0; f < series.size(); ++f)
+      series[f]->push_back(sums[f] / static_cast<double>(per_block));
     p.steps += o.block_steps;
     if (!std::isfinite(J.back()))
       throw NumericalError("sweep: " + label + ": the flow rate is not finite after " +
                            std::to_string(p.steps) + " steps");
-    const size_t n = J.size(), w = static_cast<size_t>(o.window);
-    if (!p.steady && n >= 2 * w) {
-      const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
-      const double noise =
-          2 * std::hypot(standard_error(J, n - 2 * w, n - w), standard_error(J, n - w, n));
-      if (std::abs(m2 - m1) <= std::max(o.tolerance * std::abs(m2), noise)) {
-        p.steady = true;
-        p.steady_after = p.steps;
-        measure_from = n;
-      }
+    if (!p.steady && all_steady()) {
+      p.steady = true;
+      p.steady_after = p.steps;
+      measure_from = J.size();
     }
     p.leaks.check(*sim, sim->step());  // the leak invariant (throws past its limit)
     if (p.steady && J.size() - measure_from >= static_cast<size_t>(o.measure_blocks)) {
-      const Trend t = trend_of(J, measure_from, J.size());
-      if (!t.significant()) break;
+      if (!any_trend(measure_from)) break;
       // Still drifting: this measurement does not describe a steady flow. Wait again.
       p.steady = false;
       ++p.restarts;
@@ -175,13 +231,14 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
   if (!p.steady) measure_from = J.size() - std::min(J.size(), size_t(o.measure_blocks));
   p.flux = mean_of(J, measure_from, J.size());
   p.flux_error = standard_error(J, measure_from, J.size());
-  {
-    const Trend t = trend_of(J, measure_from, J.size());
-    const double blocks = static_cast<double>(J.size() - measure_from);
-    p.drift = p.flux != 0 ? t.slope * blocks / p.flux : 0.0;
-    p.drift_error = p.flux != 0 ? std::abs(t.slope_error * blocks / p.flux) : 0.0;
-    if (p.steady && t.significant()) p.steady = false;  // ran out of steps while drifting
+  std::tie(p.drift, p.drift_error) = drift_of(J, measure_from, J.size(), p.flux);
+  for (PhaseFlux& f : p.phases) {
+    f.flux = mean_of(f.block_flux, measure_from, f.block_flux.size());
+    f.flux_error = standard_error(f.block_flux, measure_from, f.block_flux.size());
+    std::tie(f.drift, f.drift_error) =
+        drift_of(f.block_flux, measure_from, f.block_flux.size(), f.flux);
   }
+  if (p.steady && any_trend(measure_from)) p.steady = false;  // ran out of steps while drifting
   p.darcy_velocity = p.flux / o.fluid_density;
   p.darcy_velocity_error = p.flux_error / o.fluid_density;
   p.permeability = o.viscosity * p.darcy_velocity / p.gradient;
@@ -196,18 +253,36 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
 
 }  // namespace
 
+sim::ParticleSet prepare_sample(const SweepSample& sample, const SweepOptions& o) {
+  if (o.prepare.empty()) return sample.particles;
+  // The scene's early stages, once, without the driving force.
+  sim::Model model = sample.model;
+  for (auto& t : model.types) t.body_force = {0, 0, 0};
+  auto sim =
+      sim::make_simulation(model, sample.box, sample.particles, o.prepare.front().second, o.sim);
+  if (o.meter) o.meter->set_phase("preparing: the scene's stages before the last");
+  for (const auto& [steps, dt] : o.prepare) {
+    sim->set_dt(dt);
+    sim->run(steps);
+  }
+  return sim->particles();
+}
+
+SweepPoint run_steady_point(const SweepSample& sample, const SweepOptions& o, double force,
+                            std::uint64_t seed, const std::string& label,
+                            const sim::ParticleSet& from, const sim::SimulationOptions& sim_options,
+                            sim::ParticleSet* final_state) {
+  check_point_options(sample, o);
+  check_forces("sweep", {force});
+  // Side by side (several points on their threads at once), no point names the progress line.
+  return run_point(sample, o, make_plan(sample, o), force, seed, label, from, sim_options,
+                   !o.side_by_side, final_state);
+}
+
 std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions& o) {
   check_options(sample, o);
-  SweepPlan plan;
-  plan.forces = o.forces;
-  std::sort(plan.forces.begin(), plan.forces.end());
+  const SweepPlan plan = make_plan(sample, o);
   const std::vector<double>& forces = plan.forces;
-  plan.volume = sample.box.volume();
-  plan.whole.lo = sample.box.lo;
-  plan.whole.hi = sample.box.hi;
-  plan.whole.type_mask = o.driven_types;
-  plan.axis = static_cast<size_t>(o.axis);
-  plan.least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
   std::uint64_t prepare_steps = 0;
   for (const auto& stage : o.prepare) prepare_steps += stage.first;
   if (o.meter)
@@ -217,19 +292,15 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
              static_cast<double>(o.warmup_steps + plan.least_blocks * o.block_steps) +
          static_cast<double>(prepare_steps)));
   std::vector<SweepPoint> points;
-  sim::ParticleSet prepared = sample.particles;
-  if (!o.prepare.empty()) {  // the scene's early stages, once, without the driving force
-    sim::Model model = sample.model;
-    for (auto& t : model.types) t.body_force = {0, 0, 0};
-    auto sim =
-        sim::make_simulation(model, sample.box, sample.particles, o.prepare.front().second, o.sim);
-    if (o.meter) o.meter->set_phase("preparing: the scene's stages before the last");
-    for (const auto& [steps, dt] : o.prepare) {
-      sim->set_dt(dt);
-      sim->run(steps);
-    }
-    prepared = sim->particles();
-  }
+  const sim::ParticleSet prepared = prepare_sample(sample, o);
+  // Point k: its force, an independent thermal noise (the seed), its name.
+  auto point = [&](size_t k, const sim::ParticleSet& from, const sim::SimulationOptions& so,
+                   bool phases, sim::ParticleSet* final_state) {
+    const std::string label = "point " + std::to_string(k + 1) + "/" +
+                              std::to_string(forces.size()) + " g = " + fmt(forces[k], 3);
+    return run_point(sample, o, plan, forces[k], sample.model.seed + k, label, from, so, phases,
+                     final_state);
+  };
   if (o.side_by_side) {
     // Every point from the prepared particles, all at once (sim/ensemble.h); on the CPU they
     // share the cores.
@@ -239,14 +310,13 @@ std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions&
     points.resize(forces.size());
     sim::run_ensemble(static_cast<int>(forces.size()), [&](int k) {
       points[static_cast<size_t>(k)] =
-          run_point(sample, o, plan, static_cast<size_t>(k), prepared, each, false, nullptr);
+          point(static_cast<size_t>(k), prepared, each, false, nullptr);
     });
     return points;
   }
   sim::ParticleSet start = prepared;
   for (size_t k = 0; k < forces.size(); ++k)
-    points.push_back(run_point(sample, o, plan, k, o.chain ? start : prepared, o.sim, true,
-                               o.chain ? &start : nullptr));
+    points.push_back(point(k, o.chain ? start : prepared, o.sim, true, o.chain ? &start : nullptr));
   return points;
 }
 
@@ -299,6 +369,8 @@ std::optional<double> density_from_particle_file(const Scene& scene, const InitS
   }
   return j["fluid_density"].get<double>();
 }
+
+}  // namespace
 
 // The fluid density the scene's [[init]] blocks give the driven types (one value), if any.
 std::optional<double> density_from_scene(const Scene& scene, std::uint32_t driven) {
@@ -361,6 +433,8 @@ int flow_axis_of(const Scene& scene, const SweepCommand& c, std::uint32_t driven
   return axis;
 }
 
+namespace {
+
 // The viscosity that turns the flux into a permeability: given, or calibrated (cached) for the
 // driven fluid. Returns its record for sweep.json.
 nlohmann::json sweep_viscosity(const Scene& scene, const SweepCommand& c, const std::string& where,
@@ -411,28 +485,6 @@ nlohmann::json sweep_viscosity(const Scene& scene, const SweepCommand& c, const 
           {"cache_file", v.cache_file.string()},
           {"calibration", v.record}};
 }
-
-// Permeabilities in rc^2 and, with [units], in nm^2 and mD.
-struct PermeabilityUnits {
-  std::optional<sim::UnitSystem> units;
-  double nm2 = 0, mD = 0;
-  explicit PermeabilityUnits(const Scene& scene) {
-    if (!(scene.units.nm_per_rc > 0)) return;
-    units = unit_system_of(scene.units);
-    nm2 = scene.units.nm_per_rc * scene.units.nm_per_rc;
-    mD = units->permeability_m2(1.0) / kMillidarcyM2;
-  }
-  nlohmann::json json(double k, double e) const {
-    nlohmann::json j = {{"rc2", k}, {"rc2_error", e}};
-    if (units) {
-      j["nm2"] = k * nm2;
-      j["nm2_error"] = e * nm2;
-      j["mD"] = k * mD;
-      j["mD_error"] = e * mD;
-    }
-    return j;
-  }
-};
 
 // What the sweep ran on and measured, for its outputs.
 struct SweepRecord {
@@ -697,6 +749,24 @@ void write_sweep_plot(StagedOutputs& outputs, const fs::path& out_dir, const Swe
 }
 
 }  // namespace
+
+PermeabilityUnits::PermeabilityUnits(const Scene& scene) {
+  if (!(scene.units.nm_per_rc > 0)) return;
+  units = unit_system_of(scene.units);
+  nm2 = scene.units.nm_per_rc * scene.units.nm_per_rc;
+  mD = units->permeability_m2(1.0) / kMillidarcyM2;
+}
+
+nlohmann::json PermeabilityUnits::json(double k, double e) const {
+  nlohmann::json j = {{"rc2", k}, {"rc2_error", e}};
+  if (units) {
+    j["nm2"] = k * nm2;
+    j["nm2_error"] = e * nm2;
+    j["mD"] = k * mD;
+    j["mD_error"] = e * mD;
+  }
+  return j;
+}
 
 nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   const std::string where = scene.path.string() + ": sweep";

@@ -65,8 +65,18 @@ struct SweepOptions {
   // as the relax stage at a small dt that takes a freshly packed sample's overlaps out. A sweep
   // that started a packed rock at dt = 0.01 and g = 0.16 ran away in 219 steps.
   std::vector<std::pair<std::uint64_t, double>> prepare;
+  // Type masks whose fluxes are also measured apart (the two fluids of `rockflow relperm`); a
+  // point is steady only when the total and every phase's flux are.
+  std::vector<std::uint32_t> phases;
   sim::SimulationOptions sim;
   ProgressMeter* meter = nullptr;
+};
+
+// The flux of one of SweepOptions::phases at a point (J over that phase's particles only).
+struct PhaseFlux {
+  double flux = 0, flux_error = 0;
+  std::vector<double> block_flux;  // J of every block after the warm-up, in order
+  double drift = 0, drift_error = 0;
 };
 
 struct SweepPoint {
@@ -83,8 +93,9 @@ struct SweepPoint {
   // The trend of J over the measured blocks: its change across them relative to J, with its
   // error; a significant trend (beyond t_99 standard errors) restarts the measurement.
   double drift = 0, drift_error = 0;
-  int restarts = 0;    // measurements thrown away for a drifting flux
-  LeakRecord leaks;    // the leak invariant at every block (scenes with a solid grid)
+  int restarts = 0;               // measurements thrown away for a drifting flux
+  LeakRecord leaks;               // the leak invariant at every block (scenes with a solid grid)
+  std::vector<PhaseFlux> phases;  // one per SweepOptions::phases
   double seconds = 0;  // wall time of this point's steps (set-up and measurement included)
 };
 
@@ -96,6 +107,19 @@ struct SweepSample {
 
 // Checks the options against the sample (ConfigError naming the problem) and runs the sweep.
 std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions& options);
+
+// The scene's stages before its last (SweepOptions::prepare) run once on `sample` with every
+// body force off; returns the particles they leave (the sample's own when there are none).
+sim::ParticleSet prepare_sample(const SweepSample& sample, const SweepOptions& options);
+
+// One steady-state point on its own (what run_sweep does for each force): `from` driven by `force`
+// along options.axis with the model's seed replaced by `seed`; `label` names it on the progress
+// line; `final_state`, when given, receives its last particles. The options are checked as
+// run_sweep checks them (their force list is not used).
+SweepPoint run_steady_point(const SweepSample& sample, const SweepOptions& options, double force,
+                            std::uint64_t seed, const std::string& label,
+                            const sim::ParticleSet& from, const sim::SimulationOptions& sim_options,
+                            sim::ParticleSet* final_state = nullptr);
 
 // Darcy through the origin (q = (k / mu) G), a line with an intercept, and the quadratic
 // q = c1 G + c2 G^2 (Forchheimer-type: to first order G = q / c1 - (c2 / c1^3) q^2).
@@ -122,6 +146,23 @@ struct SweepCommand {
   std::filesystem::path viscosity_cache;  // "" = default_viscosity_cache()
   SweepOptions run;                       // steady-state settings, simulation options
   bool progress = true;
+};
+
+// What a scene says about the fluid a sweep drives (shared with `rockflow relperm`). The driven
+// types: --types, else the scene's body-force types, else every mobile one.
+std::uint32_t driven_types_of(const Scene& scene, const SweepCommand& c, const std::string& where);
+// The flow axis: --axis, else the axis of the driven types' largest body force.
+int flow_axis_of(const Scene& scene, const SweepCommand& c, std::uint32_t driven);
+// The fluid density the scene's [[init]] blocks (or its particle file's provenance) give the
+// driven types, if any.
+std::optional<double> density_from_scene(const Scene& scene, std::uint32_t driven);
+
+// Permeabilities in rc^2 and, with [units], in nm^2 and mD.
+struct PermeabilityUnits {
+  std::optional<sim::UnitSystem> units;
+  double nm2 = 0, mD = 0;  // one rc^2 in nm^2 and in mD
+  explicit PermeabilityUnits(const Scene& scene);
+  nlohmann::json json(double k, double e) const;  // {rc2, rc2_error[, nm2.., mD..]}
 };
 
 // Runs the sweep a scene describes and writes the outputs; returns the summary (sweep.json).

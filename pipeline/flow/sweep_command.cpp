@@ -23,21 +23,28 @@ std::vector<std::string> split_items(const std::string& text) {
   }
 }
 
-std::vector<double> parse_forces(const std::string& text) {
-  std::vector<double> forces;
+}  // namespace
+
+std::vector<double> parse_number_list(const std::string& text, const std::string& what) {
+  std::vector<double> values;
   for (const auto& f : split_items(text)) {
     if (f.find_first_not_of(" \t") == std::string::npos)
-      throw ConfigError("sweep: --forces '" + text +
-                        "': an empty item (forces are comma-separated numbers)");
+      throw ConfigError(what + " '" + text + "': an empty item (comma-separated numbers)");
     try {
       size_t used = 0;
-      forces.push_back(std::stod(f, &used));
+      values.push_back(std::stod(f, &used));
       if (used != f.size()) throw std::invalid_argument(f);
     } catch (const std::exception&) {
-      throw ConfigError("sweep: --forces: '" + f + "' is not a number");
+      throw ConfigError(what + ": '" + f + "' is not a number");
     }
   }
-  return forces;
+  return values;
+}
+
+namespace {
+
+std::vector<double> parse_forces(const std::string& text) {
+  return parse_number_list(text, "sweep: --forces");
 }
 
 void print_result(const nlohmann::json& summary, const std::string& out) {
