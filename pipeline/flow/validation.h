@@ -123,6 +123,7 @@ CaseResult run_no_penetration_case(const ValidateOptions& o);
 // The two-fluid cases (validation_two_fluid.cpp).
 CaseResult run_interfacial_tension_case(const ValidateOptions& o);
 CaseResult run_contact_angle_case(const ValidateOptions& o);
+CaseResult run_wn_contact_angle_case(const ValidateOptions& o);  // validation_capillary.cpp
 // The flooding case (validation_flooding.cpp).
 CaseResult run_flooding_mini_case(const ValidateOptions& o);
 // The permeability cases (validation_permeability.cpp).

@@ -20,10 +20,13 @@
 #include <cmath>
 #include <sstream>
 
+#include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
 #include "pipeline/flow/statistics.h"
 #include "pipeline/flow/validation.h"
 #include "pipeline/flow/wall_liquid.h"
+#include "pipeline/prep/stokes_regime.h"
+#include "sim/ensemble.h"
 #include "sim/observables.h"
 #include "sim/simulation.h"
 
@@ -36,6 +39,8 @@ using namespace wall_liquid;
 
 constexpr int kW = 0, kN = 1;
 constexpr double kTolerance = 0.10;
+// The fluid-wall A of rockprep's permeability layout, which `rockflow relperm` keeps for W.
+constexpr double kRockWallA = prep::kNoSlipWallA;
 
 struct CapillaryGeometry {
   double L = 32, Ly = 6;  // box L x Ly x L, the cylinder's axis along y
@@ -196,15 +201,82 @@ double pressure_across(sim::Simulation& sim, double x0, double x1, double L,
 
 }  // namespace
 
+namespace {
+
+// An N plug (the W particles with x < Lxy / 2) in the W-filled slit of relperm-slit (walls of
+// frozen liquid with the wall model), the W-wall pair's A set to A_SW and the N-wall pair's to
+// A_SN. Delta p: boxes about the middle of the gap, one at the plug's centre (its circular mean
+// along x, found at each sample) and one half the box away.
+struct PlugRun {
+  double A_SN = 0;
+  MeanWithError dp, p_in, p_out;
+  double drift = 0;  // the plug centre's largest move (rc)
+  std::size_t plug = 0, particles = 0;
+};
+
+PlugRun measure_plug(double h, double Lxy, double half, double A_SW, double A_SN,
+                     std::uint64_t seed, const CapillaryGeometry& g, const std::string& label,
+                     const ValidateOptions& o) {
+  Slit slit = make_slit(h, Lxy, seed, o);
+  BuiltSystem& s = slit.system;
+  constexpr int kSW = 0, kWall = 1;
+  s.model.set_pair(kSW, kWall, {A_SW, kB, kGamma});
+  const int n_type = add_second_liquid(s.model, kAWN, kWall, A_SN);
+  s.model.seed = seed + 1;
+  PlugRun r;
+  r.A_SN = A_SN;
+  for (size_t i = 0; i < s.particles.size(); ++i)
+    if (s.particles.type[i] == kSW && s.particles.x[i] < Lxy / 2) {
+      s.particles.type[i] = n_type;
+      ++r.plug;
+    }
+  r.particles = s.particles.size();
+  auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
+  const auto t0 = Clock::now();
+  progress(o, label + ": " + std::to_string(s.particles.size()) + " particles (" +
+                  std::to_string(r.plug) + " N), slit " + fmt(h, 3) + " rc, A_SW " + fmt(A_SW, 3) +
+                  ", A_SN " + fmt(A_SN, 3) + ", " + std::to_string(g.settle) + " + " +
+                  std::to_string(g.sample) + " steps (" + sim->backend_name() + ")");
+  sim->run(g.settle);
+  const int nb = static_cast<int>(std::lround(Lxy));
+  sim::BinGrid counts = sim::BinGrid::profile(0, nb, {0, 0, 0}, {Lxy, Lxy, slit.L[2]});
+  counts.type_mask = 1u << n_type;
+  const double zm = slit.L[2] / 2;
+  const std::array<double, 2> ys{0, Lxy}, zs{zm - half, zm + half};
+  std::vector<double> dp, p_in, p_out;
+  double first = 0;
+  for (std::uint64_t k = 0; k < g.sample / g.every; ++k) {
+    sim->run(g.every);
+    const double cx =
+        circular_centre_bins(sim->bin_sums(counts), nb, 1, sim::kBinFields) * Lxy / nb;
+    if (k == 0) first = cx;
+    r.drift = std::max(r.drift, std::abs(std::remainder(cx - first, Lxy)));
+    const double in = pressure_across(*sim, cx - half, cx + half, Lxy, ys, zs);
+    const double out = pressure_across(*sim, cx + Lxy / 2 - half, cx + Lxy / 2 + half, Lxy, ys, zs);
+    if (!std::isfinite(in) || !std::isfinite(out))
+      throw NumericalError(label + ": pressure is not finite at step " +
+                           std::to_string(sim->step()));
+    p_in.push_back(in);
+    p_out.push_back(out);
+    dp.push_back(in - out);
+  }
+  r.dp = block_average(dp, 10);
+  r.p_in = block_average(p_in, 10);
+  r.p_out = block_average(p_out, 10);
+  progress(o, label + ": Delta p " + fmt(r.dp.mean) + " +- " + fmt(r.dp.error, 2) + " (" +
+                  fmt(seconds_since(t0), 3) + " s)");
+  return r;
+}
+
+}  // namespace
+
 // capillary-slit: the capillary pressure of a slit, gamma cos(theta) / (h / 2) for a slit h wide,
 // at theta = 0 by construction. An N plug in the W-filled slit of relperm-slit (walls of frozen
-// W liquid with the wall model); N meets the wall as it meets W (A_SN = A_WN = -30), so to N the
-// wall is W and W wets it completely. The menisci are then half circles of radius h / 2, and the
-// pressure in the plug exceeds that in W by gamma / (h / 2). Delta p: boxes about the middle of
-// the gap, one at the plug's centre (its circular mean along x, found at each sample) and one
-// half the box away; gamma from a flat N slab in W in a periodic box at the same density
-// (laplace-cylinder's). theta is not measured: the ratio Delta p / (gamma / (h / 2)) is the
-// effective cos(theta).
+// W liquid with the wall model, A_SW = -40); N meets the wall as it meets W (A_SN = A_WN = -30),
+// so to N the wall is W and W wets it completely. The menisci are then half circles of radius
+// h / 2, and the pressure in the plug exceeds that in W by gamma / (h / 2). gamma from a flat N
+// slab in W in a periodic box at the same density (laplace-cylinder's). theta is not measured:
+// the ratio Delta p / (gamma / (h / 2)) is the effective cos(theta).
 CaseResult run_capillary_slit_case(const ValidateOptions& o) {
   CaseResult r;
   r.name = "capillary-slit";
@@ -213,51 +285,8 @@ CaseResult run_capillary_slit_case(const ValidateOptions& o) {
   std::uint64_t seed = 111 + o.seed_offset;
   const double h = full ? 8 : 6, Lxy = full ? 24 : 12, half = full ? 2 : 1.5;
   const MeanWithError gamma = flat_tension(two_liquids(g, seed, o), g, seed + 1, o);
-  seed += 2;
-  Slit slit = make_slit(h, Lxy, seed++, o);
-  BuiltSystem& s = slit.system;
-  constexpr int kSW = 0, kWall = 1;
-  const int n_type = add_second_liquid(s.model, kAWN, kWall, kAWN);
-  s.model.seed = seed++;
-  std::size_t plug = 0;
-  for (size_t i = 0; i < s.particles.size(); ++i)
-    if (s.particles.type[i] == kSW && s.particles.x[i] < Lxy / 2) {
-      s.particles.type[i] = n_type;
-      ++plug;
-    }
-  auto sim = sim::make_simulation(s.model, s.box, s.particles, 0.01, o.sim);
-  const auto t0 = Clock::now();
-  progress(o, "capillary-slit: " + std::to_string(s.particles.size()) + " particles (" +
-                  std::to_string(plug) + " N), slit " + fmt(h, 3) + " rc, " +
-                  std::to_string(g.settle) + " + " + std::to_string(g.sample) + " steps (" +
-                  sim->backend_name() + ")");
-  sim->run(g.settle);
-  const int nb = static_cast<int>(std::lround(Lxy));
-  sim::BinGrid counts = sim::BinGrid::profile(0, nb, {0, 0, 0}, {Lxy, Lxy, slit.L[2]});
-  counts.type_mask = 1u << n_type;
-  const double zm = slit.L[2] / 2;
-  const std::array<double, 2> ys{0, Lxy}, zs{zm - half, zm + half};
-  std::vector<double> dp, p_in, p_out;
-  double first = 0, drift = 0;
-  for (std::uint64_t k = 0; k < g.sample / g.every; ++k) {
-    sim->run(g.every);
-    const double cx =
-        circular_centre_bins(sim->bin_sums(counts), nb, 1, sim::kBinFields) * Lxy / nb;
-    if (k == 0) first = cx;
-    drift = std::max(drift, std::abs(std::remainder(cx - first, Lxy)));
-    const double in = pressure_across(*sim, cx - half, cx + half, Lxy, ys, zs);
-    const double out = pressure_across(*sim, cx + Lxy / 2 - half, cx + Lxy / 2 + half, Lxy, ys, zs);
-    if (!std::isfinite(in) || !std::isfinite(out))
-      throw NumericalError("capillary-slit: pressure is not finite at step " +
-                           std::to_string(sim->step()));
-    p_in.push_back(in);
-    p_out.push_back(out);
-    dp.push_back(in - out);
-  }
-  const MeanWithError d = block_average(dp, 10), pi = block_average(p_in, 10),
-                      po = block_average(p_out, 10);
-  progress(o, "capillary-slit: Delta p " + fmt(d.mean) + " +- " + fmt(d.error, 2) + " (" +
-                  fmt(seconds_since(t0), 3) + " s)");
+  const PlugRun p = measure_plug(h, Lxy, half, kA, kAWN, seed + 2, g, "capillary-slit", o);
+  const MeanWithError& d = p.dp;
   const double reference = gamma.mean / (h / 2);
   const double error = std::hypot(d.error, reference * gamma.error / gamma.mean);
   r.quantities.push_back(
@@ -269,13 +298,91 @@ CaseResult run_capillary_slit_case(const ValidateOptions& o) {
   r.notes.push_back("slit of cut width " + fmt(h, 3) + " rc, " + fmt(Lxy, 3) + " x " + fmt(Lxy, 3) +
                     " rc, walls of frozen W liquid with the wall model, A_WN = "
                     "A_SN = " +
-                    fmt(kAWN, 3) + "; " + std::to_string(plug) + " N in a plug of half the slit; " +
-                    std::to_string(g.settle) + " + " + std::to_string(g.sample) +
-                    " steps; pressure in the plug " + fmt(pi.mean) + " +- " + fmt(pi.error, 2) +
-                    ", in W " + fmt(po.mean) + " +- " + fmt(po.error, 2) + " (boxes 2 x " +
-                    fmt(half, 2) + " rc about the gap's middle); gamma_WN " + fmt(gamma.mean) +
-                    " +- " + fmt(gamma.error, 2) + "; effective cos(theta) = " +
-                    fmt(d.mean / reference, 3) + "; plug drift at most " + fmt(drift, 3) + " rc");
+                    fmt(kAWN, 3) + "; " + std::to_string(p.plug) +
+                    " N in a plug of half the slit; " + std::to_string(g.settle) + " + " +
+                    std::to_string(g.sample) + " steps; pressure in the plug " + fmt(p.p_in.mean) +
+                    " +- " + fmt(p.p_in.error, 2) + ", in W " + fmt(p.p_out.mean) + " +- " +
+                    fmt(p.p_out.error, 2) + " (boxes 2 x " + fmt(half, 2) +
+                    " rc about the gap's middle); gamma_WN " + fmt(gamma.mean) + " +- " +
+                    fmt(gamma.error, 2) + "; effective cos(theta) = " + fmt(d.mean / reference, 3) +
+                    "; plug drift at most " + fmt(p.drift, 3) + " rc");
+  return r;
+}
+
+// wn-contact-angle: the W-N contact angle on wall-model walls against the N-wall affinity A_SN,
+// at the W-wall affinity of rockprep's permeability layout (A_SW = -18, kNoSlipWallA): the
+// calibration behind `rockflow relperm --nonwetting-wall-A` (docs/relperm.md). The plug of
+// capillary-slit at each A_SN; the effective contact angle is the one that Young-Laplace turns
+// into the measured pressure jump, cos(theta) = Delta p (h / 2) / gamma_WN (h the cut width,
+// gamma_WN of a flat interface at the same density): the angle that sets capillary entry. Judged:
+// at A_SN = A_SW the two liquids differ only by their label, so cos(theta) = 0 by symmetry.
+// Full size writes the table to $MESOROCK_CALIBRATION_OUT when set.
+CaseResult run_wn_contact_angle_case(const ValidateOptions& o) {
+  CaseResult r;
+  r.name = "wn-contact-angle";
+  const bool full = o.size == CaseSize::Full;
+  CapillaryGeometry g = capillary_geometry(o);
+  const double A_SW = kRockWallA;
+  // The small size (CI) checks the symmetry only, in fewer steps: 1.4e8 particle-steps.
+  const std::vector<double> affinities =
+      full ? std::vector<double>{A_SW, A_SW + 5, A_SW + 10, A_SW + 15, A_SW + 20}
+           : std::vector<double>{A_SW};
+  if (!full) {
+    g.settle = 1500;
+    g.sample = 8000;
+  }
+  std::uint64_t seed = 131 + o.seed_offset;
+  const double h = full ? 8 : 6, Lxy = full ? 24 : 12, half = full ? 2 : 1.5;
+  const MeanWithError gamma = flat_tension(two_liquids(g, seed, o), g, seed + 1, o);
+  // Every A_SN at once (sim/ensemble.h), each from its own seeds.
+  const int n = static_cast<int>(affinities.size());
+  std::vector<PlugRun> runs(affinities.size());
+  ValidateOptions each = o;
+  each.sim = sim::ensemble_member_options(o.sim, n, 4e4);
+  sim::run_ensemble(n, [&](int k) {
+    const auto K = static_cast<size_t>(k);
+    runs[K] = measure_plug(h, Lxy, half, A_SW, affinities[K], seed + 2 + 2 * K, g,
+                           "wn-contact-angle A_SN = " + fmt(affinities[K], 3), each);
+  });
+  std::ostringstream table, csv;
+  table << "A_SN -> Delta p, cos(theta), theta (deg):";
+  csv << "# W-N contact angle (degrees, through W) vs A_SN at A_SW = " << A_SW
+      << ", from `rockflow validate wn-contact-angle --size " << (full ? "full" : "small") << "` ("
+      << sim::to_string(o.sim.backend) << ")\n"
+      << "# W and N: mDPD A = -40, B = 25, rd = 0.75, gamma = 4.5, density 7, A_WN = " << kAWN
+      << "; walls: frozen liquid with the wall model (Li et al. 2018), slit " << h << " rc cut, "
+      << Lxy << " x " << Lxy
+      << " rc; cos(theta) = Delta p (h / 2) / gamma_WN, gamma_WN = " << gamma.mean << " +- "
+      << gamma.error << "\n"
+      << "A_SN,cos_theta,cos_theta_error,theta_deg,theta_error_deg,delta_p,delta_p_error\n";
+  for (const PlugRun& p : runs) {
+    const double scale = (h / 2) / gamma.mean;
+    const double c = p.dp.mean * scale;
+    const double ce = std::hypot(p.dp.error * scale, c * gamma.error / gamma.mean);
+    const double cc = std::clamp(c, -1.0, 1.0);
+    const double theta = std::acos(cc) * 180 / M_PI;
+    const double theta_error = std::abs(cc) < 1 ? ce / std::sqrt(1 - cc * cc) * 180 / M_PI : 0.0;
+    table << " " << fmt(p.A_SN, 3) << ": " << fmt(p.dp.mean) << " +- " << fmt(p.dp.error, 2) << ", "
+          << fmt(c, 3) << " +- " << fmt(ce, 2) << ", " << fmt(theta, 3) << " +- "
+          << fmt(theta_error, 2) << " (plug drift " << fmt(p.drift, 2) << " rc);";
+    csv << p.A_SN << "," << c << "," << ce << "," << theta << "," << theta_error << "," << p.dp.mean
+        << "," << p.dp.error << "\n";
+    if (p.A_SN == A_SW)
+      r.quantities.push_back(judged(
+          "cos(theta) at A_SN = A_SW = " + fmt(A_SW, 3), c, ce, 0.0, 0.1 + (full ? 0.0 : 2 * ce),
+          "symmetry: W and N differ only by their label, so the interface meets the wall at 90 "
+          "degrees; within 0.1 (6 degrees)" +
+              std::string(full ? "" : " + 2 sigma small")));
+  }
+  r.notes.push_back(table.str());
+  r.notes.push_back("gamma_WN " + fmt(gamma.mean) + " +- " + fmt(gamma.error, 2) +
+                    " (flat slab, density 7); " + std::to_string(runs[0].particles) +
+                    " particles per slit, " + std::to_string(g.settle) + " + " +
+                    std::to_string(g.sample) + " steps per A_SN, all side by side");
+  if (const char* out = std::getenv("MESOROCK_CALIBRATION_OUT"); full && out && *out) {
+    write_text_atomically(out, csv.str());
+    r.notes.push_back(std::string("calibration table written to ") + out);
+  }
   return r;
 }
 

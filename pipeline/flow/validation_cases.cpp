@@ -241,6 +241,10 @@ const std::vector<ValidationCase>& validation_cases() {
        "an N plug in a W-filled slit whose wall is W to N (theta = 0): the pressure jump against "
        "gamma / (h / 2) within 10%",
        run_capillary_slit_case, 250, 9000},
+      {"wn-contact-angle",
+       "an N plug in a W-filled slit at the rock layout's A_SW = -18: the W-N contact angle vs "
+       "A_SN from Young-Laplace (calibration), 90 degrees at A_SN = A_SW by symmetry",
+       run_wn_contact_angle_case},
       {"flooding-mini",
        "2020 paper's flooding set-up in small: pistons push a working fluid through a grain "
        "block; recovery, no particle through a wall or slab",
