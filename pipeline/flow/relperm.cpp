@@ -12,6 +12,7 @@
 #include "mesorock/staged_outputs.h"
 #include "mesorock/version.h"
 #include "pipeline/flow/observable_outputs.h"
+#include "pipeline/flow/phase_connectivity.h"
 #include "pipeline/flow/progress.h"
 #include "sim/ensemble.h"
 #include "sim/particle_io.h"
@@ -27,6 +28,9 @@ std::string fmt(double v, int precision = 4) {
   s << std::setprecision(precision) << v;
   return s.str();
 }
+
+// Two particles of one phase closer than this are connected (phase_connectivity.h).
+constexpr double kBondCutoff = 0.7;
 
 // A value and its standard error.
 struct Value {
@@ -48,6 +52,7 @@ struct RelpermRun {
   SweepPoint point;
   sim::ParticleSet final_state;
   Value kr_w, kr_n, kr_sum;  // against the reference
+  PhaseConnectivity w, n;    // of each phase in the final state, along the flow axis
 };
 
 // What the summary needs besides the runs.
@@ -211,16 +216,20 @@ void write_tables(StagedOutputs& out, const fs::path& dir, const std::vector<Rel
     << ", A_SN = " << s.nonwetting_wall_A << "; errors one standard error\n";
   t << "S_w_target,S_w,fluid_particles,nonwetting_particles,entry_radius_rc,flux_W,flux_W_error,"
        "flux_N,flux_N_error,flux_total,flux_total_error,kr_W,kr_W_error,kr_N,kr_N_error,kr_sum,"
-       "kr_sum_error,steady,steady_after_steps,steps,drift_W,drift_N,temperature,seconds\n";
+       "kr_sum_error,W_spans,W_spanning_share,N_spans,N_spanning_share,steady,steady_after_steps,"
+       "steps,"
+       "drift_W,drift_N,temperature,seconds\n";
   for (const RelpermRun& r : runs) {
     const SweepPoint& p = r.point;
     t << r.target << "," << r.placed.saturation << "," << r.placed.fluid << ","
       << r.placed.nonwetting << "," << r.placed.entry_radius << "," << p.phases[0].flux << ","
       << p.phases[0].flux_error << "," << p.phases[1].flux << "," << p.phases[1].flux_error << ","
       << p.flux << "," << p.flux_error << "," << r.kr_w.v << "," << r.kr_w.e << "," << r.kr_n.v
-      << "," << r.kr_n.e << "," << r.kr_sum.v << "," << r.kr_sum.e << "," << (p.steady ? 1 : 0)
-      << "," << p.steady_after << "," << p.steps << "," << p.phases[0].drift << ","
-      << p.phases[1].drift << "," << p.temperature << "," << p.seconds << "\n";
+      << "," << r.kr_n.e << "," << r.kr_sum.v << "," << r.kr_sum.e << "," << (r.w.spans ? 1 : 0)
+      << "," << r.w.spanning_fraction << "," << (r.n.spans ? 1 : 0) << "," << r.n.spanning_fraction
+      << "," << (p.steady ? 1 : 0) << "," << p.steady_after << "," << p.steps << ","
+      << p.phases[0].drift << "," << p.phases[1].drift << "," << p.temperature << "," << p.seconds
+      << "\n";
   }
   out.write_text(dir / "relperm.csv", t.str());
   std::ostringstream b;
@@ -236,30 +245,40 @@ void write_tables(StagedOutputs& out, const fs::path& dir, const std::vector<Rel
   out.write_text(dir / "relperm_blocks.csv", b.str());
 }
 
+nlohmann::json connectivity_json(const PhaseConnectivity& c) {
+  return {{"particles", c.particles},
+          {"clusters", c.clusters},
+          {"largest_cluster", c.largest},
+          {"spans", c.spans},
+          {"spanning_share", c.spanning_fraction}};
+}
+
 nlohmann::json runs_json(const std::vector<RelpermRun>& runs, const RelpermSetup& s) {
   nlohmann::json a = nlohmann::json::array();
   const double n = s.o.fluid_density;
   for (const RelpermRun& r : runs) {
     const SweepPoint& p = r.point;
-    nlohmann::json j = {{"saturation_target", r.target},
-                        {"saturation", r.placed.saturation},
-                        {"fluid_particles", r.placed.fluid},
-                        {"nonwetting_particles", r.placed.nonwetting},
-                        {"entry_radius_rc", r.placed.entry_radius},
-                        {"flux_W", json_of({p.phases[0].flux, p.phases[0].flux_error})},
-                        {"flux_N", json_of({p.phases[1].flux, p.phases[1].flux_error})},
-                        {"flux_total", json_of({p.flux, p.flux_error})},
-                        {"kr_W", json_of(r.kr_w)},
-                        {"kr_N", json_of(r.kr_n)},
-                        {"kr_sum", json_of(r.kr_sum)},
-                        {"steady", p.steady},
-                        {"steady_after_steps", p.steady_after},
-                        {"steps", p.steps},
-                        {"restarts", p.restarts},
-                        {"drift_W", json_of({p.phases[0].drift, p.phases[0].drift_error})},
-                        {"drift_N", json_of({p.phases[1].drift, p.phases[1].drift_error})},
-                        {"temperature", p.temperature},
-                        {"seconds", p.seconds}};
+    nlohmann::json j = {
+        {"saturation_target", r.target},
+        {"saturation", r.placed.saturation},
+        {"fluid_particles", r.placed.fluid},
+        {"nonwetting_particles", r.placed.nonwetting},
+        {"entry_radius_rc", r.placed.entry_radius},
+        {"flux_W", json_of({p.phases[0].flux, p.phases[0].flux_error})},
+        {"flux_N", json_of({p.phases[1].flux, p.phases[1].flux_error})},
+        {"flux_total", json_of({p.flux, p.flux_error})},
+        {"kr_W", json_of(r.kr_w)},
+        {"kr_N", json_of(r.kr_n)},
+        {"kr_sum", json_of(r.kr_sum)},
+        {"connectivity", {{"W", connectivity_json(r.w)}, {"N", connectivity_json(r.n)}}},
+        {"steady", p.steady},
+        {"steady_after_steps", p.steady_after},
+        {"steps", p.steps},
+        {"restarts", p.restarts},
+        {"drift_W", json_of({p.phases[0].drift, p.phases[0].drift_error})},
+        {"drift_N", json_of({p.phases[1].drift, p.phases[1].drift_error})},
+        {"temperature", p.temperature},
+        {"seconds", p.seconds}};
     if (s.viscosity) {
       const double mu = s.viscosity->v, G = n * s.force;
       j["k_W"] = s.units.json(mu * p.phases[0].flux / n / G, mu * p.phases[0].flux_error / n / G);
@@ -304,6 +323,10 @@ nlohmann::json summary_of(const std::vector<RelpermRun>& runs, const RelpermSetu
         {"note",
          "N is a copy of W but for A_WN and A_SN; A_SN = A_SW is neutral wetting (90 degrees "
          "by symmetry)"}}},
+      {"connectivity_rule",
+       "at the end of each run, particles of one phase closer than " + std::to_string(kBondCutoff) +
+           " rc are bonded; a cluster spans when it closes a loop around the periodic box along "
+           "the flow axis (docs/relperm.md)"},
       {"placement", to_string(s.c.placement)},
       {"drainage_largest_radius_rc", s.largest_radius},
       {"force_g", s.force},
@@ -498,6 +521,10 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
     for (size_t k = 0; k < runs.size(); ++k) run(k, o.sim);
   }
   relative_permeabilities(runs);
+  for (RelpermRun& r : runs) {
+    r.w = phase_connectivity(r.final_state, s.wetting, scene.box, o.axis, kBondCutoff);
+    r.n = phase_connectivity(r.final_state, s.nonwetting, scene.box, o.axis, kBondCutoff);
+  }
 
   std::error_code ec;
   fs::create_directories(c.sweep.out_dir, ec);

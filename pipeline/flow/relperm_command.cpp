@@ -15,7 +15,8 @@ namespace {
 void print_result(const nlohmann::json& summary, const std::string& out) {
   std::cout << "relative permeability (" << summary["placement"].get<std::string>()
             << " placement, g = " << summary["force_g"].get<double>() << "; kr = J_phase / J_1):\n";
-  std::cout << "  S_w      kr_W               kr_N               kr_W + kr_N   steady\n";
+  std::cout << "  S_w      kr_W               kr_N               kr_W + kr_N   steady  spans "
+               "(W, N)\n";
   for (const auto& r : summary["runs"]) {
     const auto pm = [](const nlohmann::json& v) {
       std::ostringstream s;
@@ -26,8 +27,10 @@ void print_result(const nlohmann::json& summary, const std::string& out) {
     std::cout << "  " << std::fixed << std::setprecision(4) << r["saturation"].get<double>()
               << "   " << std::setw(17) << std::left << pm(r["kr_W"]) << "  " << std::setw(17)
               << pm(r["kr_N"]) << "  " << std::setw(12) << std::setprecision(4)
-              << r["kr_sum"]["value"].get<double>() << "  "
-              << (r["steady"].get<bool>() ? "yes" : "NO") << std::right << "\n";
+              << r["kr_sum"]["value"].get<double>() << "  " << std::setw(6)
+              << (r["steady"].get<bool>() ? "yes" : "NO") << "  "
+              << (r["connectivity"]["W"]["spans"].get<bool>() ? "W" : "-")
+              << (r["connectivity"]["N"]["spans"].get<bool>() ? "N" : "-") << std::right << "\n";
   }
   const auto& c = summary["checks"];
   std::cout << "checks: kr_W + kr_N < 1: " << (c["kr_sum_below_one"].get<bool>() ? "yes" : "no")

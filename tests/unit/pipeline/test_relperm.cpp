@@ -1,7 +1,7 @@
 // `rockflow relperm`: the drainage radius on grids whose answer is known (slits of two widths,
 // a pore across a periodic face), the placement rules (exact counts, seeds, the largest pores
-// first), the per-phase fluxes of the sweep machinery (they add up to the total), and the
-// command end to end on a tiny slit with a solid grid.
+// first), the per-phase fluxes of the sweep machinery (they add up to the total), the command end
+// to end on a tiny slit with a solid grid, and the phase connectivity (layers and drops).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mesorock/errors.h"
+#include "pipeline/flow/phase_connectivity.h"
 #include "pipeline/flow/phase_placement.h"
 #include "pipeline/flow/sweep.h"
 #include "pipeline/flow/systems.h"
@@ -290,6 +291,64 @@ TEST(RelpermCli, TinySlitWritesItsCurvesAndStates) {
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("strictly between 0 and 1"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(dir / "bad"));
+}
+
+}  // namespace
+
+namespace {
+
+// Particles on a lattice of 0.5 rc in a box L[0] x L[1] x L[2], of type 1 where `second` says,
+// else of type 0.
+template <class Second>
+ms::ParticleSet lattice(const std::array<double, 3>& L, Second second) {
+  ms::ParticleSet p;
+  std::int64_t id = 0;
+  for (double z = 0.25; z < L[2]; z += 0.5)
+    for (double y = 0.25; y < L[1]; y += 0.5)
+      for (double x = 0.25; x < L[0]; x += 0.5)
+        p.add(x, y, z, 0, 0, 0, second(x, y, z) ? 1 : 0, id++);
+  return p;
+}
+
+// A layer of the second phase (y in [1.5, 2.5)) spans the periodic box along x and z, not along
+// y; the first phase around it spans along x but not along y either (a loop around y would cross
+// the layer). A sphere spans nothing. Along a bounded axis, spanning is touching both faces.
+TEST(PhaseConnectivity, LayersSpanAndDropsDoNot) {
+  ms::BoxSpec box;
+  box.hi = {6, 4, 4};
+  const auto layer =
+      lattice({6, 4, 4}, [](double, double y, double) { return y > 1.5 && y < 2.5; });
+  const mp::PhaseConnectivity nx = mp::phase_connectivity(layer, 1, box, 0);
+  EXPECT_TRUE(nx.spans);
+  EXPECT_EQ(nx.clusters, 1u);
+  EXPECT_DOUBLE_EQ(nx.spanning_fraction, 1.0);
+  EXPECT_EQ(nx.particles, 12u * 2 * 8);
+  EXPECT_TRUE(mp::phase_connectivity(layer, 1, box, 2).spans);
+  EXPECT_FALSE(mp::phase_connectivity(layer, 1, box, 1).spans);
+  EXPECT_TRUE(mp::phase_connectivity(layer, 0, box, 0).spans);
+  EXPECT_FALSE(mp::phase_connectivity(layer, 0, box, 1).spans);
+  // A drop of radius 1.2 in the middle: one cluster, spanning nothing; its surroundings span.
+  const auto drop = lattice({6, 4, 4}, [](double x, double y, double z) {
+    return (x - 3) * (x - 3) + (y - 2) * (y - 2) + (z - 2) * (z - 2) < 1.44;
+  });
+  for (int a = 0; a < 3; ++a) {
+    const mp::PhaseConnectivity d = mp::phase_connectivity(drop, 1, box, a);
+    EXPECT_FALSE(d.spans) << a;
+    EXPECT_EQ(d.clusters, 1u);
+    EXPECT_DOUBLE_EQ(d.spanning_fraction, 0.0);
+    EXPECT_TRUE(mp::phase_connectivity(drop, 0, box, a).spans) << a;
+  }
+  // Two drops across the periodic x face (x = 0) are one drop; a gap of 1 rc keeps two layers
+  // apart (no bond at 0.7 rc).
+  const auto split = lattice({6, 4, 4}, [](double x, double, double) { return x < 1 || x > 5; });
+  const mp::PhaseConnectivity s = mp::phase_connectivity(split, 1, box, 0);
+  EXPECT_EQ(s.clusters, 1u);
+  EXPECT_FALSE(s.spans);  // x in [5, 7) unwrapped: not around the box
+  EXPECT_TRUE(mp::phase_connectivity(split, 1, box, 1).spans);
+  // Bounded along x: the layer touches both x faces.
+  box.periodic = {false, true, true};
+  EXPECT_TRUE(mp::phase_connectivity(layer, 1, box, 0).spans);
+  EXPECT_FALSE(mp::phase_connectivity(split, 1, box, 0).spans);
 }
 
 }  // namespace
