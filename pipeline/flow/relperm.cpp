@@ -428,6 +428,11 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
   const std::string where = scene.path.string() + ": relperm";
   if (scene.stages.empty()) throw ConfigError(where + ": the scene has no [[run]] stage");
   check_saturations(where, c.saturations);
+  if (c.placement == Placement::Drainage && !scene.model.solid.mask)
+    throw ConfigError(where +
+                      ": the drainage placement needs the sample's solid grid ([solid] in "
+                      "the scene, as rockprep run --layout permeability writes it); or use "
+                      "--placement random");
   RelpermSetup s{scene, c, c.sweep.run, 0, 0, 0, 0, 0, 0, PermeabilityUnits(scene), {}, {}, {}, 0};
   const std::uint32_t driven = driven_types_of(scene, c.sweep, where);
   if ((driven & (driven - 1)) != 0)
@@ -460,7 +465,25 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
   for (size_t k = 0; k + 1 < scene.stages.size(); ++k)
     o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
   o.viscosity = s.viscosity ? s.viscosity->v : 1.0;  // kr does not need it
-  o.driven_types = driven;
+  // Every run's options, checked before any step.
+  o.driven_types = driven | (1u << s.nonwetting);
+  o.phases = {1u << s.wetting, 1u << s.nonwetting};
+  check_steady_options({two, scene.box, {}}, o);
+  // The drainage map first (it needs no particles): a grid without pore or solid fails before any
+  // step.
+  const std::array<bool, 3> periodic = [&] {
+    const auto v = sim::solid_view_of<double>(scene.model.solid, scene.box);
+    return std::array<bool, 3>{v.periodic[0], v.periodic[1], v.periodic[2]};
+  }();
+  std::optional<DrainageMap> map;
+  if (c.placement == Placement::Drainage) {
+    meter.set_phase("pore sizes for the drainage placement");
+    map = drainage_map(*scene.model.solid.mask, periodic, [&](int k, int K) {
+      meter.set_phase("pore sizes for the drainage placement: radius " + std::to_string(k) + "/" +
+                      std::to_string(K));
+    });
+    s.largest_radius = map->largest_radius;
+  }
   // The scene's early stages once, with W alone; every run starts from what they leave.
   const SweepSample single{scene.model, scene.box, build_initial_particles(scene)};
   const double n_runs = static_cast<double>(c.saturations.size() + 1);
@@ -475,24 +498,6 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
   const sim::ParticleSet prepared = prepare_sample(single, o);
 
   // Placement of every run (the reference keeps W alone).
-  const std::array<bool, 3> periodic = [&] {
-    const auto v = sim::solid_view_of<double>(scene.model.solid, scene.box);
-    return std::array<bool, 3>{v.periodic[0], v.periodic[1], v.periodic[2]};
-  }();
-  std::optional<DrainageMap> map;
-  if (c.placement == Placement::Drainage) {
-    if (!scene.model.solid.mask)
-      throw ConfigError(where +
-                        ": the drainage placement needs the sample's solid grid ([solid] "
-                        "in the scene, as rockprep run --layout permeability writes it); "
-                        "or use --placement random");
-    meter.set_phase("pore sizes for the drainage placement");
-    map = drainage_map(*scene.model.solid.mask, periodic, [&](int k, int K) {
-      meter.set_phase("pore sizes for the drainage placement: radius " + std::to_string(k) + "/" +
-                      std::to_string(K));
-    });
-    s.largest_radius = map->largest_radius;
-  }
   std::vector<RelpermRun> runs(c.saturations.size() + 1);
   std::vector<SweepSample> samples(runs.size(), SweepSample{two, scene.box, prepared});
   for (size_t k = 0; k < runs.size(); ++k) {
@@ -501,8 +506,6 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
                                   c.placement, scene.model.seed + 7919 * (k + 1),
                                   map ? &*map : nullptr, scene.model.solid.mask.get(), periodic);
   }
-  o.driven_types = driven | (1u << s.nonwetting);
-  o.phases = {1u << s.wetting, 1u << s.nonwetting};
   auto run = [&](size_t k, const sim::SimulationOptions& so) {
     const std::string label = k == 0 ? std::string("reference S_w = 1")
                                      : "S_w = " + fmt(runs[k].placed.saturation, 3) + " (" +

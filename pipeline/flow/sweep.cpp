@@ -44,8 +44,9 @@ void check_forces(const std::string& where, const std::vector<double>& forces) {
                         " is given twice (each point needs its own force)");
 }
 
-// Everything but the force list.
-void check_point_options(const SweepSample& s, const SweepOptions& o) {
+}  // namespace
+
+void check_steady_options(const SweepSample& s, const SweepOptions& o) {
   if (o.axis < 0 || o.axis > 2) throw ConfigError("sweep: the flow axis must be x, y or z");
   if (o.driven_types == 0) throw ConfigError("sweep: no driven type");
   for (int t = 0; t < s.model.ntypes(); ++t) {
@@ -76,9 +77,11 @@ void check_point_options(const SweepSample& s, const SweepOptions& o) {
       throw ConfigError("sweep: a measured phase must be a non-empty set of driven types");
 }
 
+namespace {
+
 void check_options(const SweepSample& s, const SweepOptions& o) {
   check_forces("sweep", o.forces);
-  check_point_options(s, o);
+  check_steady_options(s, o);
 }
 
 double mean_of(const std::vector<double>& v, size_t from, size_t to) {
@@ -272,7 +275,7 @@ SweepPoint run_steady_point(const SweepSample& sample, const SweepOptions& o, do
                             std::uint64_t seed, const std::string& label,
                             const sim::ParticleSet& from, const sim::SimulationOptions& sim_options,
                             sim::ParticleSet* final_state) {
-  check_point_options(sample, o);
+  check_steady_options(sample, o);
   check_forces("sweep", {force});
   // Side by side (several points on their threads at once), no point names the progress line.
   return run_point(sample, o, make_plan(sample, o), force, seed, label, from, sim_options,

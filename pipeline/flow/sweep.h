@@ -108,6 +108,10 @@ struct SweepSample {
 // Checks the options against the sample (ConfigError naming the problem) and runs the sweep.
 std::vector<SweepPoint> run_sweep(const SweepSample& sample, const SweepOptions& options);
 
+// Checks everything in `options` but the force list against the sample (ConfigError naming the
+// problem): what run_sweep and run_steady_point check before any step.
+void check_steady_options(const SweepSample& sample, const SweepOptions& options);
+
 // The scene's stages before its last (SweepOptions::prepare) run once on `sample` with every
 // body force off; returns the particles they leave (the sample's own when there are none).
 sim::ParticleSet prepare_sample(const SweepSample& sample, const SweepOptions& options);

@@ -282,7 +282,28 @@ TEST(RelpermCli, TinySlitWritesItsCurvesAndStates) {
     for (const char* q : {"flux_W", "flux_N", "flux_total"})
       EXPECT_EQ(t["runs"][k][q], runs[k][q]) << k << " " << q;
   EXPECT_FALSE(fs::exists(dir / "together" / "states"));
-  // Bad input: a saturation of 1.
+  // Bad input, each refused with one line naming the problem before any step and any output:
+  // a saturation of 1, a sweep summary that is missing or is not one, a cross repulsion that
+  // would mix the liquids, too few steps for the steady test.
+  const std::string base = mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " relperm " +
+                           mesorock::test::shell_quote(scene.string()) + " --out " +
+                           mesorock::test::shell_quote((dir / "bad").string()) + " ";
+  std::ofstream(dir / "not_a_sweep.json") << "{\"points\": []}";
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"--saturations 0.5 --sweep " + (dir / "none.json").string(), "none.json: cannot open"},
+      {"--saturations 0.5 --sweep " + (dir / "not_a_sweep.json").string(),
+       "not a rockflow sweep summary"},
+      {"--saturations 0.5 --cross-A -50", "less attractive than the fluid's own"},
+      {"--saturations 0.5 --max-steps 10", "max steps 10"},
+      {"--saturations 0.5 --placement sideways", "placement"}};
+  for (const auto& [args, message] : refused) {
+    const CommandResult e = mesorock::test::run_command(base + args, dir.path());
+    EXPECT_NE(e.exit_code, 0) << args;
+    EXPECT_NE(e.err.find(message), std::string::npos) << args << ": " << e.err;
+    EXPECT_FALSE(fs::exists(dir / "bad")) << args;
+    EXPECT_EQ(e.err.find("particle-steps"), std::string::npos) << args << ": a step ran";
+  }
+  // A saturation of 1.
   const CommandResult bad = mesorock::test::run_command(
       mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " relperm " +
           mesorock::test::shell_quote(scene.string()) + " --out " +
