@@ -21,7 +21,9 @@
 // ratio of fluxes is the ratio k_phase / k_abs at this gradient). With a `rockflow sweep` summary
 // of the same sample (--sweep), k_abs is also the sweep's Darcy fit and the reference's k = mu
 // J_1 / (n_f^2 g) is compared with it (the end point), and each phase's k is given in rc^2, nm^2
-// and mD.
+// and mD. Each run's final state also says whether each phase spans the sample along the flow
+// axis (phase_connectivity.h): a phase that does not span carries flux only by clusters that
+// move with the flow.
 #include <filesystem>
 #include <optional>
 #include <string>
