@@ -8,12 +8,14 @@
 #include <sstream>
 
 #include "mesorock/errors.h"
+#include "mesorock/number_text.h"
 #include "mesorock/plot.h"
 #include "mesorock/staged_outputs.h"
 #include "mesorock/version.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/phase_connectivity.h"
 #include "pipeline/flow/progress.h"
+#include "pipeline/flow/statistics.h"
 #include "sim/ensemble.h"
 #include "sim/particle_io.h"
 
@@ -23,26 +25,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string fmt(double v, int precision = 4) {
-  std::ostringstream s;
-  s << std::setprecision(precision) << v;
-  return s.str();
-}
-
 // Two particles of one phase closer than this are connected (phase_connectivity.h).
 constexpr double kBondCutoff = 0.7;
 
 // A value and its standard error.
-struct Value {
-  double v = 0, e = 0;
-};
-// a / b with independent errors.
-Value ratio(Value a, Value b) {
-  const double q = a.v / b.v;
-  return {q, std::abs(q) * std::hypot(a.v != 0 ? a.e / a.v : 0.0, b.e / b.v)};
-}
-nlohmann::json json_of(Value x) {
-  return {{"value", x.v}, {"error", x.e}};
+using Value = MeanWithError;
+nlohmann::json json_of(const Value& x) {
+  return {{"value", x.mean}, {"error", x.error}};
 }
 
 // One run: a saturation (or the reference, S_w = 1).
@@ -138,24 +127,31 @@ void read_sweep_summary(RelpermSetup& s, const std::string& where) {
     const auto& mu = j.at("viscosity");
     s.viscosity = Value{mu.at("value").get<double>(), mu.at("error").get<double>()};
     s.sweep_record = {{"file", path.string()},
-                      {"k_abs_rc2", s.k_abs->v},
-                      {"k_abs_rc2_error", s.k_abs->e},
-                      {"viscosity", s.viscosity->v},
-                      {"viscosity_error", s.viscosity->e},
+                      {"k_abs_rc2", s.k_abs->mean},
+                      {"k_abs_rc2_error", s.k_abs->error},
+                      {"viscosity", s.viscosity->mean},
+                      {"viscosity_error", s.viscosity->error},
                       {"scene_file", j.value("scene_file", "")}};
   } catch (const nlohmann::json::exception& e) {
     throw ConfigError(path.string() + ": not a rockflow sweep summary (" + e.what() + ")");
   }
-  if (!(s.k_abs->v > 0) || !(s.viscosity->v > 0))
+  if (!(s.k_abs->mean > 0) || !(s.viscosity->mean > 0))
     throw ConfigError(path.string() + ": " + where +
                       ": the sweep's permeability and viscosity must be positive");
+}
+
+// k = mu J / (n_f^2 g) of a flux J (the sweep's definition, sweep.h), in rc^2; needs the
+// viscosity (--viscosity or --sweep).
+Value permeability_of(const RelpermSetup& s, double J, double J_error) {
+  const double per_flux = s.viscosity->mean / (s.o.fluid_density * s.o.fluid_density * s.force);
+  return {per_flux * J, per_flux * J_error};
 }
 
 // The kr of every run against the reference (runs[0]).
 void relative_permeabilities(std::vector<RelpermRun>& runs) {
   const Value J1{runs[0].point.flux, runs[0].point.flux_error};
-  if (!(J1.v > 0))
-    throw NumericalError("relperm: the single-phase flux is not positive (" + fmt(J1.v) +
+  if (!(J1.mean > 0))
+    throw NumericalError("relperm: the single-phase flux is not positive (" + fmt(J1.mean) +
                          "): no flow to compare with; raise the force or the blocks");
   runs[0].kr_w = {1, 0};  // by definition (W alone)
   runs[0].kr_n = {0, 0};
@@ -169,21 +165,28 @@ void relative_permeabilities(std::vector<RelpermRun>& runs) {
   }
 }
 
-// The checks on a rock: kr_W + kr_N below 1, both curves monotonic within two combined
-// standard errors (kr_W rising, kr_N falling with S_w), end points.
-nlohmann::json curve_checks(const std::vector<RelpermRun>& runs, const RelpermSetup& s) {
+// The runs in order of their reached saturation (the reference last).
+std::vector<const RelpermRun*> by_saturation(const std::vector<RelpermRun>& runs) {
   std::vector<const RelpermRun*> by_s;
   for (const auto& r : runs) by_s.push_back(&r);
   std::sort(by_s.begin(), by_s.end(), [](const RelpermRun* a, const RelpermRun* b) {
     return a->placed.saturation < b->placed.saturation;
   });
+  return by_s;
+}
+
+// The checks on a rock: kr_W + kr_N below 1, both curves monotonic within two combined
+// standard errors (kr_W rising, kr_N falling with S_w), end points.
+nlohmann::json curve_checks(const std::vector<RelpermRun>& runs, const RelpermSetup& s) {
+  const std::vector<const RelpermRun*> by_s = by_saturation(runs);
   bool below = true, w_monotonic = true, n_monotonic = true;
   for (size_t k = 0; k < by_s.size(); ++k) {
-    if (by_s[k]->target < 1 && !(by_s[k]->kr_sum.v < 1)) below = false;
+    if (by_s[k]->target < 1 && !(by_s[k]->kr_sum.mean < 1)) below = false;
     if (k == 0) continue;
     const RelpermRun &a = *by_s[k - 1], &b = *by_s[k];
-    if (b.kr_w.v - a.kr_w.v < -2 * std::hypot(a.kr_w.e, b.kr_w.e)) w_monotonic = false;
-    if (b.kr_n.v - a.kr_n.v > 2 * std::hypot(a.kr_n.e, b.kr_n.e)) n_monotonic = false;
+    if (b.kr_w.mean - a.kr_w.mean < -2 * std::hypot(a.kr_w.error, b.kr_w.error))
+      w_monotonic = false;
+    if (b.kr_n.mean - a.kr_n.mean > 2 * std::hypot(a.kr_n.error, b.kr_n.error)) n_monotonic = false;
   }
   nlohmann::json j = {{"kr_sum_below_one", below},
                       {"kr_w_rises_within_2_sigma", w_monotonic},
@@ -191,14 +194,12 @@ nlohmann::json curve_checks(const std::vector<RelpermRun>& runs, const RelpermSe
   if (s.k_abs && s.viscosity) {
     // The reference's k at this gradient against the sweep's Darcy fit.
     const SweepPoint& p = runs[0].point;
-    const double n = s.o.fluid_density;
-    const Value k1{s.viscosity->v * p.flux / (n * n * s.force),
-                   s.viscosity->v * p.flux_error / (n * n * s.force)};
+    const Value k1 = permeability_of(s, p.flux, p.flux_error);
     const Value q = ratio(k1, *s.k_abs);
     j["end_point"] = {{"k_single_phase_rc2", json_of(k1)},
                       {"k_abs_sweep_rc2", json_of(*s.k_abs)},
                       {"ratio", json_of(q)},
-                      {"consistent_within_2_sigma", std::abs(q.v - 1) <= 2 * q.e}};
+                      {"consistent_within_2_sigma", std::abs(q.mean - 1) <= 2 * q.error}};
   }
   return j;
 }
@@ -224,12 +225,12 @@ void write_tables(StagedOutputs& out, const fs::path& dir, const std::vector<Rel
     t << r.target << "," << r.placed.saturation << "," << r.placed.fluid << ","
       << r.placed.nonwetting << "," << r.placed.entry_radius << "," << p.phases[0].flux << ","
       << p.phases[0].flux_error << "," << p.phases[1].flux << "," << p.phases[1].flux_error << ","
-      << p.flux << "," << p.flux_error << "," << r.kr_w.v << "," << r.kr_w.e << "," << r.kr_n.v
-      << "," << r.kr_n.e << "," << r.kr_sum.v << "," << r.kr_sum.e << "," << (r.w.spans ? 1 : 0)
-      << "," << r.w.spanning_fraction << "," << (r.n.spans ? 1 : 0) << "," << r.n.spanning_fraction
-      << "," << (p.steady ? 1 : 0) << "," << p.steady_after << "," << p.steps << ","
-      << p.phases[0].drift << "," << p.phases[1].drift << "," << p.temperature << "," << p.seconds
-      << "\n";
+      << p.flux << "," << p.flux_error << "," << r.kr_w.mean << "," << r.kr_w.error << ","
+      << r.kr_n.mean << "," << r.kr_n.error << "," << r.kr_sum.mean << "," << r.kr_sum.error << ","
+      << (r.w.spans ? 1 : 0) << "," << r.w.spanning_fraction << "," << (r.n.spans ? 1 : 0) << ","
+      << r.n.spanning_fraction << "," << (p.steady ? 1 : 0) << "," << p.steady_after << ","
+      << p.steps << "," << p.phases[0].drift << "," << p.phases[1].drift << "," << p.temperature
+      << "," << p.seconds << "\n";
   }
   out.write_text(dir / "relperm.csv", t.str());
   std::ostringstream b;
@@ -255,7 +256,6 @@ nlohmann::json connectivity_json(const PhaseConnectivity& c) {
 
 nlohmann::json runs_json(const std::vector<RelpermRun>& runs, const RelpermSetup& s) {
   nlohmann::json a = nlohmann::json::array();
-  const double n = s.o.fluid_density;
   for (const RelpermRun& r : runs) {
     const SweepPoint& p = r.point;
     nlohmann::json j = {
@@ -280,12 +280,11 @@ nlohmann::json runs_json(const std::vector<RelpermRun>& runs, const RelpermSetup
         {"temperature", p.temperature},
         {"seconds", p.seconds}};
     if (s.viscosity) {
-      const double mu = s.viscosity->v, G = n * s.force;
-      j["k_W"] = s.units.json(mu * p.phases[0].flux / n / G, mu * p.phases[0].flux_error / n / G);
-      j["k_N"] = s.units.json(mu * p.phases[1].flux / n / G, mu * p.phases[1].flux_error / n / G);
+      const Value kw = permeability_of(s, p.phases[0].flux, p.phases[0].flux_error);
+      const Value kn = permeability_of(s, p.phases[1].flux, p.phases[1].flux_error);
+      j["k_W"] = s.units.json(kw.mean, kw.error);
+      j["k_N"] = s.units.json(kn.mean, kn.error);
       if (s.k_abs) {
-        const Value kw{mu * p.phases[0].flux / n / G, mu * p.phases[0].flux_error / n / G};
-        const Value kn{mu * p.phases[1].flux / n / G, mu * p.phases[1].flux_error / n / G};
         j["kr_W_against_sweep"] = json_of(ratio(kw, *s.k_abs));
         j["kr_N_against_sweep"] = json_of(ratio(kn, *s.k_abs));
       }
@@ -335,16 +334,7 @@ nlohmann::json summary_of(const std::vector<RelpermRun>& runs, const RelpermSetu
       {"definitions",
        "J = sum v / V_total per phase; kr = J_phase / J_1 with J_1 the single-phase flux at the "
        "same g (the first run, S_w = 1); docs/relperm.md"},
-      {"steady_state",
-       {{"warmup_steps", o.warmup_steps},
-        {"block_steps", o.block_steps},
-        {"sample_every", o.sample_every},
-        {"window_blocks", o.window},
-        {"tolerance", o.tolerance},
-        {"measure_blocks", o.measure_blocks},
-        {"max_steps", o.max_steps},
-        {"side_by_side", o.side_by_side},
-        {"rule", "the sweep's (docs/permeability.md), on the total flux and each phase's"}}},
+      {"steady_state", steady_state_json(o)},
       {"dt", o.dt},
       {"seed", s.scene.model.seed},
       {"runs", runs_json(runs, s)},
@@ -367,18 +357,14 @@ nlohmann::json summary_of(const std::vector<RelpermRun>& runs, const RelpermSetu
 // relperm.png: kr_W and kr_N against S_w with error bars, and their sum.
 void write_plot(StagedOutputs& out, const fs::path& dir, const std::vector<RelpermRun>& runs,
                 const RelpermSetup& s) {
-  std::vector<const RelpermRun*> by_s;
-  for (const auto& r : runs) by_s.push_back(&r);
-  std::sort(by_s.begin(), by_s.end(), [](const RelpermRun* a, const RelpermRun* b) {
-    return a->placed.saturation < b->placed.saturation;
-  });
+  const std::vector<const RelpermRun*> by_s = by_saturation(runs);
   plot::Plot pl;
   pl.title =
       "relative permeability, " + to_string(s.c.placement) + " placement (" + s.scene.name + ")";
   pl.x_label = "wetting saturation S_w";
   pl.y_label = "kr";
   pl.style = plot::PlotStyle::kPoints;
-  pl.label = "kr_W (1 s.e.)";
+  pl.label = "kr_W (1 s.error.)";
   pl.x_from_zero = true;
   plot::Series n, sum;
   n.label = "kr_N";
@@ -386,13 +372,13 @@ void write_plot(StagedOutputs& out, const fs::path& dir, const std::vector<Relpe
   sum.label = "kr_W + kr_N";
   for (const RelpermRun* r : by_s) {
     pl.x.push_back(r->placed.saturation);
-    pl.y.push_back(r->kr_w.v);
-    pl.y_error.push_back(r->kr_w.e);
+    pl.y.push_back(r->kr_w.mean);
+    pl.y_error.push_back(r->kr_w.error);
     n.x.push_back(r->placed.saturation);
-    n.y.push_back(r->kr_n.v);
-    n.y_error.push_back(r->kr_n.e);
+    n.y.push_back(r->kr_n.mean);
+    n.y_error.push_back(r->kr_n.error);
     sum.x.push_back(r->placed.saturation);
-    sum.y.push_back(r->kr_sum.v);
+    sum.y.push_back(r->kr_sum.mean);
   }
   pl.more = {n, sum};
   const fs::path png = dir / "relperm.png";
@@ -464,7 +450,7 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
   o.dt = scene.stages.back().dt;
   for (size_t k = 0; k + 1 < scene.stages.size(); ++k)
     o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
-  o.viscosity = s.viscosity ? s.viscosity->v : 1.0;  // kr does not need it
+  o.viscosity = s.viscosity ? s.viscosity->mean : 1.0;  // kr does not need it
   // Every run's options, checked before any step.
   o.driven_types = driven | (1u << s.nonwetting);
   o.phases = {1u << s.wetting, 1u << s.nonwetting};

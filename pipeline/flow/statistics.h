@@ -44,6 +44,14 @@ inline MeanWithError block_average(const std::vector<double>& series, size_t blo
   return r;
 }
 
+// a / b and its error, a and b independent.
+inline MeanWithError ratio(const MeanWithError& a, const MeanWithError& b) {
+  MeanWithError q;
+  q.mean = a.mean / b.mean;
+  q.error = std::abs(q.mean) * std::hypot(a.mean != 0 ? a.error / a.mean : 0.0, b.error / b.mean);
+  return q;
+}
+
 // Least squares of u = c0 + c1 (z - zc) + c2 (z - zc)^2, weighted by 1 / err^2 when errors are
 // given (err empty: unit weights, chi2 then in the units of u^2). Normal equations (3 x 3) solved
 // by Cramer's rule; fitting about a centre zc inside the data keeps them well conditioned.

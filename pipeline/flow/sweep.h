@@ -161,6 +161,9 @@ int flow_axis_of(const Scene& scene, const SweepCommand& c, std::uint32_t driven
 // driven types, if any.
 std::optional<double> density_from_scene(const Scene& scene, std::uint32_t driven);
 
+// The steady-state settings and rule, as the summaries (sweep.json, relperm.json) record them.
+nlohmann::json steady_state_json(const SweepOptions& options);
+
 // Permeabilities in rc^2 and, with [units], in nm^2 and mD.
 struct PermeabilityUnits {
   std::optional<sim::UnitSystem> units;

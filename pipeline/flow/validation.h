@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "mesorock/number_text.h"
 #include "pipeline/flow/progress.h"
 #include "pipeline/flow/systems.h"
 #include "sim/model.h"
@@ -89,16 +90,11 @@ struct ValidateOptions {
 };
 
 // Small helpers the case files share: a progress line on stderr when verbose, a number with
-// `precision` significant digits, and the seconds since t0.
+// `precision` significant digits (mesorock::fmt, mesorock/number_text.h), and the seconds since t0.
 inline void progress(const ValidateOptions& o, const std::string& what) {
   if (!o.verbose) return;
   clear_progress_line(std::cerr);  // a redrawn progress meter line (pipeline/flow/progress.h)
   std::cerr << what << std::endl;
-}
-inline std::string fmt(double v, int precision = 4) {
-  std::ostringstream s;
-  s << std::setprecision(precision) << v;
-  return s.str();
 }
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -75,6 +75,24 @@ BuiltSystem two_liquids(const CapillaryGeometry& g, std::uint64_t seed, const Va
   return s;
 }
 
+// The pressure inside and outside a curved interface, sample by sample, and their block averages
+// (10 blocks).
+struct PressureJump {
+  std::vector<double> in, out, dp;
+  void add(double inside, double outside, const std::string& label, std::uint64_t step) {
+    if (!std::isfinite(inside) || !std::isfinite(outside))
+      throw NumericalError(label + ": pressure is not finite at step " + std::to_string(step));
+    in.push_back(inside);
+    out.push_back(outside);
+    dp.push_back(inside - outside);
+  }
+  void average(MeanWithError& jump, MeanWithError& inside, MeanWithError& outside) const {
+    jump = block_average(dp, 10);
+    inside = block_average(in, 10);
+    outside = block_average(out, 10);
+  }
+};
+
 struct CylinderRun {
   MeanWithError dp, p_in, p_out, n_in;
   double radius = 0, radius_error = 0;  // equimolar
@@ -113,7 +131,8 @@ CylinderRun measure_cylinder(const BuiltSystem& base, const CapillaryGeometry& g
   strip_z.lo = {0, 0, 0};
   strip_z.hi = {g.L, g.Ly, g.strip};
   const double half = R0 / 3;
-  std::vector<double> dp, p_in, p_out, n_in;
+  PressureJump jump;
+  std::vector<double> n_in;
   for (std::uint64_t k = 0; k < g.sample / g.every; ++k) {
     sim->run(g.every);
     const double cx =
@@ -132,20 +151,13 @@ CylinderRun measure_cylinder(const BuiltSystem& base, const CapillaryGeometry& g
     inner_count.lo = inner.lo;
     inner_count.hi = inner.hi;
     inner_count.type_mask = 1u << kN;
-    const double in = sim->region_stress(inner).pressure_conservative();
-    const double out = 0.5 * (sim->region_stress(strip_x).pressure_conservative() +
-                              sim->region_stress(strip_z).pressure_conservative());
-    if (!std::isfinite(in) || !std::isfinite(out))
-      throw NumericalError(label + ": pressure is not finite at step " +
-                           std::to_string(sim->step()));
-    p_in.push_back(in);
-    p_out.push_back(out);
-    dp.push_back(in - out);
+    jump.add(sim->region_stress(inner).pressure_conservative(),
+             0.5 * (sim->region_stress(strip_x).pressure_conservative() +
+                    sim->region_stress(strip_z).pressure_conservative()),
+             label, sim->step());
     n_in.push_back(sim->bin_sums(inner_count)[sim::kBinCount] / inner_count.bin_volume());
   }
-  r.dp = block_average(dp, 10);
-  r.p_in = block_average(p_in, 10);
-  r.p_out = block_average(p_out, 10);
+  jump.average(r.dp, r.p_in, r.p_out);
   r.n_in = block_average(n_in, 10);
   r.radius = std::sqrt(static_cast<double>(r.n_count) / (M_PI * g.Ly * r.n_in.mean));
   r.radius_error = 0.5 * r.radius * r.n_in.error / r.n_in.mean;
@@ -243,7 +255,7 @@ PlugRun measure_plug(double h, double Lxy, double half, double A_SW, double A_SN
   counts.type_mask = 1u << n_type;
   const double zm = slit.L[2] / 2;
   const std::array<double, 2> ys{0, Lxy}, zs{zm - half, zm + half};
-  std::vector<double> dp, p_in, p_out;
+  PressureJump jump;
   double first = 0;
   for (std::uint64_t k = 0; k < g.sample / g.every; ++k) {
     sim->run(g.every);
@@ -251,18 +263,11 @@ PlugRun measure_plug(double h, double Lxy, double half, double A_SW, double A_SN
         circular_centre_bins(sim->bin_sums(counts), nb, 1, sim::kBinFields) * Lxy / nb;
     if (k == 0) first = cx;
     r.drift = std::max(r.drift, std::abs(std::remainder(cx - first, Lxy)));
-    const double in = pressure_across(*sim, cx - half, cx + half, Lxy, ys, zs);
-    const double out = pressure_across(*sim, cx + Lxy / 2 - half, cx + Lxy / 2 + half, Lxy, ys, zs);
-    if (!std::isfinite(in) || !std::isfinite(out))
-      throw NumericalError(label + ": pressure is not finite at step " +
-                           std::to_string(sim->step()));
-    p_in.push_back(in);
-    p_out.push_back(out);
-    dp.push_back(in - out);
+    jump.add(pressure_across(*sim, cx - half, cx + half, Lxy, ys, zs),
+             pressure_across(*sim, cx + Lxy / 2 - half, cx + Lxy / 2 + half, Lxy, ys, zs), label,
+             sim->step());
   }
-  r.dp = block_average(dp, 10);
-  r.p_in = block_average(p_in, 10);
-  r.p_out = block_average(p_out, 10);
+  jump.average(r.dp, r.p_in, r.p_out);
   progress(o, label + ": Delta p " + fmt(r.dp.mean) + " +- " + fmt(r.dp.error, 2) + " (" +
                   fmt(seconds_since(t0), 3) + " s)");
   return r;

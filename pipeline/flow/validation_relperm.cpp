@@ -158,14 +158,6 @@ std::string interface_slip(const CoFlow& f, const CoFlow& single) {
                     : std::string("-"));
 }
 
-// The ratio a / b and its error from independent errors of a and b.
-MeanWithError ratio(const MeanWithError& a, const MeanWithError& b) {
-  MeanWithError q;
-  q.mean = a.mean / b.mean;
-  q.error = std::abs(q.mean) * std::hypot(a.error / a.mean, b.error / b.mean);
-  return q;
-}
-
 }  // namespace
 
 CaseResult run_relperm_slit_case(const ValidateOptions& o) {

@@ -16,6 +16,7 @@
 #include "sim/particle_io.h"
 #include "sim/solid_grid.h"
 #include "support/test_support.h"
+#include "unit/pipeline/tiny_slit.h"
 
 namespace fs = std::filesystem;
 namespace mp = mesorock::pipeline;
@@ -157,57 +158,9 @@ TEST(SweepPhases, PhaseFluxesAddUpToTheTotal) {
       mesorock::ConfigError);
 }
 
-// A slit 5.5 rc wide over a frozen wall slab, with a solid grid over the slab: the drainage
-// placement puts the non-wetting liquid in the middle of the slit.
-const char* kSlit = R"(name = "relperm-slit-cli"
-seed = 4
-[box]
-lo = [0.0, 0.0, 0.0]
-hi = [4.0, 4.0, 7.0]
-[model]
-conservative = "mdpd"
-[[types]]
-name = "water"
-body_force = [0.05, 0.0, 0.0]
-[[types]]
-name = "wall"
-frozen = true
-[[pairs]]
-types = ["water", "water"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["water", "wall"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["wall", "wall"]
-A = 0.0
-B = 0.0
-gamma = 0.0
-[[init]]
-kind = "lattice"
-type = "wall"
-density = 8.0
-hi = [4.0, 4.0, 1.5]
-[[init]]
-kind = "random"
-type = "water"
-density = 7.0
-lo = [0.0, 0.0, 1.5]
-hi = [4.0, 4.0, 7.0]
-[walls]
-model = "li2018"
-[solid]
-file = "solid.h5"
-[[run]]
-steps = 100
-dt = 0.01
-[units]
-nm_per_rc = 0.852
-)";
+// The tiny slit (5.5 rc of water over a frozen wall slab) with a solid grid over the slab: the
+// drainage placement puts the non-wetting liquid in the middle of the slit.
+const std::string kSlit = std::string(mesorock::test::kTinySlit) + "[solid]\nfile = \"solid.h5\"\n";
 
 TEST(RelpermCli, TinySlitWritesItsCurvesAndStates) {
   TempDir dir;

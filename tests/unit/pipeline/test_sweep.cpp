@@ -13,6 +13,7 @@
 #include "pipeline/flow/sweep.h"
 #include "pipeline/flow/systems.h"
 #include "support/test_support.h"
+#include "unit/pipeline/tiny_slit.h"
 
 namespace fs = std::filesystem;
 namespace mp = mesorock::pipeline;
@@ -164,59 +165,10 @@ TEST(Sweep, SideBySidePointsEqualTheUnchainedPointsOneAtATime) {
   EXPECT_NE(alone[1].block_flux, chained[1].block_flux);
 }
 
-// A slit pore of lattice walls (the wall model on), fluid driven along x.
-const char* kSlit = R"(name = "tiny-slit"
-seed = 3
-[box]
-lo = [0.0, 0.0, 0.0]
-hi = [4.0, 4.0, 7.0]
-[model]
-conservative = "mdpd"
-[[types]]
-name = "water"
-body_force = [0.05, 0.0, 0.0]
-[[types]]
-name = "wall"
-frozen = true
-[[pairs]]
-types = ["water", "water"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["water", "wall"]
-A = -40.0
-B = 25.0
-gamma = 4.5
-[[pairs]]
-types = ["wall", "wall"]
-A = 0.0
-B = 0.0
-gamma = 0.0
-[[init]]
-kind = "lattice"
-type = "wall"
-density = 8.0
-hi = [4.0, 4.0, 1.5]
-[[init]]
-kind = "random"
-type = "water"
-density = 7.0
-lo = [0.0, 0.0, 1.5]
-hi = [4.0, 4.0, 7.0]
-[walls]
-model = "li2018"
-[[run]]
-steps = 100
-dt = 0.01
-[units]
-nm_per_rc = 0.852
-)";
-
 TEST(SweepCli, TinySweepWritesItsOutputsAndReusesTheCalibration) {
   TempDir dir;
   const fs::path scene = dir / "slit.toml";
-  std::ofstream(scene) << kSlit;
+  std::ofstream(scene) << mesorock::test::kTinySlit;
   auto sweep = [&](const std::string& out) {
     return mesorock::test::run_command(
         mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
@@ -300,7 +252,7 @@ std::string sweep_into_o(const fs::path& scene, const TempDir& dir) {
 TEST(SweepCli, BadInputIsOneLineAndExitTwo) {
   TempDir dir;
   const fs::path scene = dir / "slit.toml";
-  std::ofstream(scene) << kSlit;
+  std::ofstream(scene) << mesorock::test::kTinySlit;
   const std::string base = sweep_into_o(scene, dir);
   for (const std::string& args :
        {std::string(" --forces 0.1,abc"), std::string(" --forces 0"),
@@ -318,7 +270,7 @@ TEST(SweepCli, BadInputIsOneLineAndExitTwo) {
 TEST(SweepCli, BadListsAndNegativeCountsAreRefusedBeforeAnyStep) {
   TempDir dir;
   const fs::path scene = dir / "slit.toml";
-  std::ofstream(scene) << kSlit;
+  std::ofstream(scene) << mesorock::test::kTinySlit;
   const std::string base = sweep_into_o(scene, dir) + " --viscosity 7 --threads 1";
   const std::pair<std::string, std::string> cases[] = {
       {" --forces 0.01,0.01", "given twice"},
@@ -342,7 +294,7 @@ TEST(SweepCli, BadListsAndNegativeCountsAreRefusedBeforeAnyStep) {
 // all-pore sample used to get k = 3.3 rc^2). Refused before any step.
 TEST(SweepCli, ASampleWithoutSolidIsRefused) {
   TempDir dir;
-  std::string text = kSlit;
+  std::string text = mesorock::test::kTinySlit;
   const std::string wall_block =
       "[[init]]\nkind = \"lattice\"\ntype = \"wall\"\ndensity = 8.0\nhi = [4.0, 4.0, 1.5]\n";
   const auto at = text.find(wall_block);
