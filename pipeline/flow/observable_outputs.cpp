@@ -94,4 +94,15 @@ void write_binned_outputs(StagedOutputs& outputs, const fs::path& out_dir,
                 [&](const fs::path& p) { sim::write_field_xdmf(p, h5, grid, fields, meta.time); });
 }
 
+void write_state_files(StagedOutputs& outputs, const std::filesystem::path& dir,
+                       const std::string& stem, const sim::ParticleSet& particles,
+                       const sim::ParticleFileMeta& meta) {
+  const std::filesystem::path h5 = dir / (stem + ".h5");
+  outputs.write(
+      h5, [&](const std::filesystem::path& p) { sim::write_particle_file(p, particles, meta); });
+  outputs.write(dir / (stem + ".xmf"), [&](const std::filesystem::path& p) {
+    sim::write_particle_xdmf(p, h5, particles.size(), meta.time);
+  });
+}
+
 }  // namespace mesorock::pipeline

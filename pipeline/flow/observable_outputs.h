@@ -11,6 +11,7 @@
 #include "mesorock/staged_outputs.h"
 #include "pipeline/scene.h"
 #include "sim/observables.h"
+#include "sim/particle_io.h"
 #include "sim/units.h"
 
 namespace mesorock::pipeline {
@@ -34,5 +35,11 @@ sim::UnitSystem unit_system_of(const UnitsSpec& spec);
 
 // The units block of summary.json: reduced units always; SI conversion factors when given.
 nlohmann::json units_json(const std::optional<sim::UnitSystem>& units);
+
+// A particle state as DIR/STEM.h5 + DIR/STEM.xmf (ParaView opens the .xmf), staged in `outputs`;
+// STEM may name a subfolder (states/...), which must exist.
+void write_state_files(StagedOutputs& outputs, const std::filesystem::path& dir,
+                       const std::string& stem, const sim::ParticleSet& particles,
+                       const sim::ParticleFileMeta& meta);
 
 }  // namespace mesorock::pipeline

@@ -399,12 +399,8 @@ void write_states(StagedOutputs& out, const fs::path& dir, const std::vector<Rel
         {"saturation", r.placed.saturation},
         {"placement", to_string(s.c.placement)},
         {"force_g", s.force}}.dump();
-    const std::string stem = "states/S_" + fmt(r.target, 6);  // the target: a stable name
-    const fs::path h5 = dir / (stem + ".h5");
-    out.write(h5, [&](const fs::path& p) { sim::write_particle_file(p, r.final_state, meta); });
-    out.write(dir / (stem + ".xmf"), [&](const fs::path& p) {
-      sim::write_particle_xdmf(p, h5, r.final_state.size(), meta.time);
-    });
+    // The target: a stable name.
+    write_state_files(out, dir, "states/S_" + fmt(r.target, 6), r.final_state, meta);
   }
 }
 

@@ -2,6 +2,7 @@
 // Time averages with block-averaging error bars (Flyvbjerg & Petersen 1989): the series is cut
 // into blocks longer than its correlation time; the error of the mean is the standard error of the
 // block means.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <vector>
@@ -42,6 +43,33 @@ inline MeanWithError block_average(const std::vector<double>& series, size_t blo
   for (double v : means) ss += (v - m) * (v - m);
   r.error = std::sqrt(ss / static_cast<double>(blocks - 1) / static_cast<double>(blocks));
   return r;
+}
+
+// The mean of v[from, to) and its plain standard error (the series' values taken as independent:
+// block means longer than the correlation time).
+inline double mean_of(const std::vector<double>& v, size_t from, size_t to) {
+  double s = 0;
+  for (size_t k = from; k < to; ++k) s += v[k];
+  return s / static_cast<double>(to - from);
+}
+inline double standard_error_of(const std::vector<double>& v, size_t from, size_t to) {
+  const double m = mean_of(v, from, to);
+  const double n = static_cast<double>(to - from);
+  double ss = 0;
+  for (size_t k = from; k < to; ++k) ss += (v[k] - m) * (v[k] - m);
+  return n > 1 ? std::sqrt(ss / (n - 1) / n) : 0.0;
+}
+
+// The steady test of block series (rockflow sweep, relperm, pc): the means of the last two windows
+// of w blocks agree within `tolerance` (relative to the last) or within two combined standard
+// errors (noise-dominated series).
+inline bool halves_agree(const std::vector<double>& J, size_t w, double tolerance) {
+  const size_t n = J.size();
+  if (w == 0 || n < 2 * w) return false;
+  const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
+  const double noise =
+      2 * std::hypot(standard_error_of(J, n - 2 * w, n - w), standard_error_of(J, n - w, n));
+  return std::abs(m2 - m1) <= std::max(tolerance * std::abs(m2), noise);
 }
 
 // a / b and its error, a and b independent.

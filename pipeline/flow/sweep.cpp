@@ -16,6 +16,7 @@
 #include "mesorock/version.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/progress.h"
+#include "pipeline/flow/statistics.h"
 #include "pipeline/flow/viscosity_calibration.h"
 #include "sim/ensemble.h"
 #include "sim/observables.h"
@@ -85,21 +86,6 @@ void check_options(const SweepSample& s, const SweepOptions& o) {
   check_steady_options(s, o);
 }
 
-double mean_of(const std::vector<double>& v, size_t from, size_t to) {
-  double s = 0;
-  for (size_t k = from; k < to; ++k) s += v[k];
-  return s / static_cast<double>(to - from);
-}
-
-// Standard error of the mean of v[from, to).
-double standard_error(const std::vector<double>& v, size_t from, size_t to) {
-  const double m = mean_of(v, from, to);
-  const double n = static_cast<double>(to - from);
-  double ss = 0;
-  for (size_t k = from; k < to; ++k) ss += (v[k] - m) * (v[k] - m);
-  return n > 1 ? std::sqrt(ss / (n - 1) / n) : 0.0;
-}
-
 // What every point of a sweep shares.
 struct SweepPlan {
   std::vector<double> forces;  // ascending
@@ -125,17 +111,6 @@ SweepPlan make_plan(const SweepSample& sample, const SweepOptions& o) {
   plan.axis = static_cast<size_t>(o.axis);
   plan.least_blocks = static_cast<std::uint64_t>(2 * o.window + o.measure_blocks);
   return plan;
-}
-
-// Whether the last 2 window blocks of J agree: the means of the two halves within the tolerance
-// (relative) or within two combined standard errors.
-bool halves_agree(const std::vector<double>& J, size_t w, double tolerance) {
-  const size_t n = J.size();
-  if (n < 2 * w) return false;
-  const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
-  const double noise =
-      2 * std::hypot(standard_error(J, n - 2 * w, n - w), standard_error(J, n - w, n));
-  return std::abs(m2 - m1) <= std::max(tolerance * std::abs(m2), noise);
 }
 
 // The relative change of J[from, to) across its blocks (least-squares trend) and its error.
@@ -232,11 +207,11 @@ SweepPoint run_point(const SweepSample& sample, const SweepOptions& o, const Swe
   if (p.steady && J.size() - measure_from < size_t(o.measure_blocks)) p.steady = false;
   if (!p.steady) measure_from = J.size() - std::min(J.size(), size_t(o.measure_blocks));
   p.flux = mean_of(J, measure_from, J.size());
-  p.flux_error = standard_error(J, measure_from, J.size());
+  p.flux_error = standard_error_of(J, measure_from, J.size());
   std::tie(p.drift, p.drift_error) = drift_of(J, measure_from, J.size(), p.flux);
   for (PhaseFlux& f : p.phases) {
     f.flux = mean_of(f.block_flux, measure_from, f.block_flux.size());
-    f.flux_error = standard_error(f.block_flux, measure_from, f.block_flux.size());
+    f.flux_error = standard_error_of(f.block_flux, measure_from, f.block_flux.size());
     std::tie(f.drift, f.drift_error) =
         drift_of(f.block_flux, measure_from, f.block_flux.size(), f.flux);
   }

@@ -104,29 +104,17 @@ FloodScene build_flood_scene(const FloodGeometry& geometry, const ValidateOption
   sim::Model& m = f.s.model;
   m.types[0].name = "source";
   f.working = m.add_type({"working", false, {0, 0, 0}});
-  f.push = m.add_type({"push", false, {0, 0, 0}});
-  f.back = m.add_type({"back", false, {0, 0, 0}});
   for (int a = 0; a < m.ntypes(); ++a)
     for (int b = 0; b < m.ntypes(); ++b) m.set_pair(a, b, {kA, kB, kGamma});
-  m.set_pair(f.push, f.push, {0, 0, 0});  // a rigid body exerts nothing on itself
-  m.set_pair(f.back, f.back, {0, 0, 0});
   m.wall_model.wall_types = 1u << f.wall;
-  // The box: the pushing slab in [-S, 0), the back-pressure slab in [Lliq, Lliq + S), room behind
-  // it; reflective along x.
-  f.s.box.lo = {-g.slab - 0.5, 0, 0};
-  f.s.box.hi = {Lliq + g.slab + g.room, W, W};
-  f.s.box.periodic = {false, true, true};
   sim::ParticleSet& p = f.s.particles;
   for (size_t i = 0; i < p.size(); ++i)
     if (p.type[i] == f.source && p.x[i] < R) p.type[i] = f.working;
-  std::int64_t next = 0;
-  for (auto id : p.id) next = std::max<std::int64_t>(next, id + 1);
-  constexpr double kSlabDensity = 8;  // the papers' wall density
-  sim::fill_lattice(p, f.push, {-g.slab, 0, 0}, {0, W, W}, kSlabDensity, next);
-  sim::fill_lattice(p, f.back, {Lliq, 0, 0}, {Lliq + g.slab, W, W}, kSlabDensity, next);
-  // P > 0 pushes towards +x: the pushing slab at back + drive, the back slab against it.
-  m.rigid_slabs.push_back({f.push, 0, g.back_pressure + g.drive});
-  m.rigid_slabs.push_back({f.back, 0, -g.back_pressure});
+  // The pushing slab in [-S, 0), the back-pressure slab in [Lliq, Lliq + S), room behind it.
+  const Pistons pistons =
+      add_pistons(f.s, Lliq, g.slab, g.room, g.back_pressure + g.drive, g.back_pressure);
+  f.push = pistons.push;
+  f.back = pistons.back;
   m.virtual_walls.push_back({0, R, 1u << f.working, true, g.settle});
   return f;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 
+#include "sim/init.h"
 #include "sim/simulation.h"
 #include "sim/wall_model.h"
 
@@ -72,6 +73,32 @@ void Slit::start_on_profile(double g) {
     const double d = p.z[i] - (z0 - kSlipLength);
     p.vx[i] += std::max(0.0, kRho * g / (2 * kBulkViscosity) * d * (h_eff - d));
   }
+}
+
+Pistons add_pistons(BuiltSystem& s, double Lliq, double slab, double room, double push_pressure,
+                    double back_pressure) {
+  sim::Model& m = s.model;
+  Pistons p;
+  p.push = m.add_type({"push", false, {0, 0, 0}});
+  p.back = m.add_type({"back", false, {0, 0, 0}});
+  for (int t = 0; t < m.ntypes(); ++t)
+    for (int slab_type : {p.push, p.back}) m.set_pair(slab_type, t, {kA, kB, kGamma});
+  m.set_pair(p.push, p.push, {0, 0, 0});  // a rigid body exerts nothing on itself
+  m.set_pair(p.back, p.back, {0, 0, 0});
+  const double W = s.box.length(1), H = s.box.length(2);
+  s.box.lo = {-slab - 0.5, s.box.lo[1], s.box.lo[2]};
+  s.box.hi = {Lliq + slab + room, s.box.hi[1], s.box.hi[2]};
+  s.box.periodic[0] = false;
+  std::int64_t next = 0;
+  for (auto id : s.particles.id) next = std::max<std::int64_t>(next, id + 1);
+  constexpr double kSlabDensity = 8;
+  sim::fill_lattice(s.particles, p.push, {-slab, s.box.lo[1], s.box.lo[2]},
+                    {0, s.box.lo[1] + W, s.box.lo[2] + H}, kSlabDensity, next);
+  sim::fill_lattice(s.particles, p.back, {Lliq, s.box.lo[1], s.box.lo[2]},
+                    {Lliq + slab, s.box.lo[1] + W, s.box.lo[2] + H}, kSlabDensity, next);
+  m.rigid_slabs.push_back({p.push, 0, push_pressure});
+  m.rigid_slabs.push_back({p.back, 0, -back_pressure});
+  return p;
 }
 
 }  // namespace mesorock::pipeline::wall_liquid

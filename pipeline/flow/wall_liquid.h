@@ -59,4 +59,16 @@ struct Slit {
 };
 Slit make_slit(double h, double Lxy, std::uint64_t seed, const ValidateOptions& o);
 
+// The pistons of the flooding cases (flooding-mini, drainage-slit): a pushing slab in
+// [-slab, 0) and a back-pressure slab in [Lliq, Lliq + slab) along x, both of density 8 (the
+// papers' wall density), about the liquid filling [0, Lliq); the box becomes reflective along x
+// with `room` free behind the back slab (and 0.5 rc behind the pushing one). Each slab type meets
+// every other type as the liquid does and exerts nothing on itself (a rigid body). P > 0 pushes
+// towards +x: the pushing slab at push_pressure, the back slab at -back_pressure.
+struct Pistons {
+  int push = -1, back = -1;  // types; Model::rigid_slabs 0 and 1
+};
+Pistons add_pistons(BuiltSystem& s, double Lliq, double slab, double room, double push_pressure,
+                    double back_pressure);
+
 }  // namespace mesorock::pipeline::wall_liquid
