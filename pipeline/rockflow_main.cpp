@@ -24,9 +24,10 @@ int main(int argc, char** argv) {
                                           mesorock::kGitCommit + ")");
     app.require_subcommand(1);
     const std::vector<mp::FlowCommand> commands = {
-        mp::add_run_command(app),    mp::add_validate_command(app), mp::add_sweep_command(app),
-        mp::add_bench_command(app),  mp::add_lbm_command(app),      mp::add_study_flow_command(app),
-        mp::add_relperm_command(app)};
+        mp::add_run_command(app),     mp::add_validate_command(app),
+        mp::add_sweep_command(app),   mp::add_bench_command(app),
+        mp::add_lbm_command(app),     mp::add_study_flow_command(app),
+        mp::add_relperm_command(app), mp::add_pc_command(app)};
     mp::bound_count_options(app);
     try {
       app.parse(argc, argv);

@@ -52,6 +52,7 @@ FlowCommand add_sweep_command(CLI::App& rockflow);       // sweep_command.cpp
 FlowCommand add_bench_command(CLI::App& rockflow);       // bench_command.cpp
 FlowCommand add_lbm_command(CLI::App& rockflow);         // lbm_command.cpp
 FlowCommand add_relperm_command(CLI::App& rockflow);     // relperm_command.cpp
+FlowCommand add_pc_command(CLI::App& rockflow);          // pc_command.cpp
 FlowCommand add_study_flow_command(CLI::App& rockflow);  // study.cpp's command, with the flags
 
 }  // namespace mesorock::pipeline

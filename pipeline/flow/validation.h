@@ -132,6 +132,8 @@ CaseResult run_darcy_linearity_case(const ValidateOptions& o);
 CaseResult run_relperm_slit_case(const ValidateOptions& o);
 CaseResult run_laplace_cylinder_case(const ValidateOptions& o);
 CaseResult run_capillary_slit_case(const ValidateOptions& o);
+// Capillary entry under stepped pressure, rockflow pc's machinery (validation_drainage.cpp).
+CaseResult run_drainage_slit_case(const ValidateOptions& o);
 // Sum of the interface tensions of a film that is flat in y-z, from one stress sample:
 // Lx (s_xx - (s_yy + s_zz) / 2) = integral over x of (p_N - p_T). The kinetic and conservative
 // parts carry the tension; the dissipative and random virials average to zero at equilibrium

@@ -245,6 +245,10 @@ const std::vector<ValidationCase>& validation_cases() {
        "an N plug in a W-filled slit at the rock layout's A_SW = -18: the W-N contact angle vs "
        "A_SN from Young-Laplace (calibration), 90 degrees at A_SN = A_SW by symmetry",
        run_wn_contact_angle_case},
+      {"drainage-slit",
+       "N pushed into a W-filled slit at stepped capillary pressure (rockflow pc's pistons and "
+       "membrane): the entry pressure against Young-Laplace 2 gamma cos(theta) / h within 10%",
+       run_drainage_slit_case},
       {"flooding-mini",
        "2020 paper's flooding set-up in small: pistons push a working fluid through a grain "
        "block; recovery, no particle through a wall or slab",
