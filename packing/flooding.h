@@ -48,7 +48,7 @@ struct FloodingOptions {
   int connectivity = 6;        // 6 or 26, for the clusters
   double inlet_rc = 4.0;       // working-fluid reservoir length
   double outlet_rc = 4.0;      // source-fluid reservoir length
-  double slab_rc = 1.0;        // slab thickness
+  double slab_rc = 2.0;        // slab thickness (fluid passes through a 1 rc slab of tiles)
   double room_rc = -1;         // empty room behind the back slab; < 0: the block's pore
                                // volume over the cross-section, plus 1 rc
 };

@@ -191,7 +191,7 @@ void write_tables(StagedOutputs& out, const fs::path& dir, const DrainageResult&
     << (s.units ? ", Pa where given" : "") << "; errors one standard error\n";
   t << "level,branch,Pc,Pc_Pa,S_w,S_w_error,Pc_measured,Pc_measured_error,p_N,p_N_error,p_W,p_W_"
        "error,"
-       "W_in_block,N_in_block,steady,steady_after_steps,steps,restarts,push_position,"
+       "W_in_block,N_in_block,behind_slabs,steady,steady_after_steps,steps,restarts,push_position,"
        "back_position,temperature,seconds\n";
   for (size_t k = 0; k < r.levels.size(); ++k) {
     const DrainageLevel& l = r.levels[k];
@@ -199,9 +199,9 @@ void write_tables(StagedOutputs& out, const fs::path& dir, const DrainageResult&
       << "," << l.saturation.mean << "," << l.saturation.error << "," << l.pc_measured.mean << ","
       << l.pc_measured.error << "," << l.p_nonwetting.mean << "," << l.p_nonwetting.error << ","
       << l.p_wetting.mean << "," << l.p_wetting.error << "," << l.wetting_in_block << ","
-      << l.nonwetting_in_block << "," << (l.steady ? 1 : 0) << "," << l.steady_after << ","
-      << l.steps << "," << l.restarts << "," << l.push_position << "," << l.back_position << ","
-      << l.temperature << "," << l.seconds << "\n";
+      << l.nonwetting_in_block << "," << l.behind_slabs << "," << (l.steady ? 1 : 0) << ","
+      << l.steady_after << "," << l.steps << "," << l.restarts << "," << l.push_position << ","
+      << l.back_position << "," << l.temperature << "," << l.seconds << "\n";
   }
   out.write_text(dir / "pc.csv", t.str());
   std::ostringstream b;
@@ -231,6 +231,7 @@ nlohmann::json levels_json(const DrainageResult& r, const PcSetup& s) {
                         {"p_W", value_json(l.p_wetting)},
                         {"W_in_block", l.wetting_in_block},
                         {"N_in_block", l.nonwetting_in_block},
+                        {"fluid_behind_slabs", l.behind_slabs},
                         {"steady", l.steady},
                         {"steady_after_steps", l.steady_after},
                         {"steps", l.steps},
@@ -276,7 +277,9 @@ nlohmann::json summary_of(const DrainageResult& r, const PcSetup& s, const Progr
        "block; a membrane at the block's outlet face keeps N in the block; Pc_measured = p_N - "
        "p_W from the reservoirs' region stress (docs/relperm.md)"},
       {"steady_state",
-       {{"block_steps", o.block_steps},
+       {{"ramp_steps", o.ramp_steps},
+        {"ramp_parts", o.ramp_parts},
+        {"block_steps", o.block_steps},
         {"sample_every", o.sample_every},
         {"window", o.window},
         {"tolerance", o.tolerance},

@@ -77,6 +77,25 @@ bool reservoir_pressures(sim::Simulation& sim, const sim::BoxSpec& box, const Dr
   return true;
 }
 
+// The fluid particles behind the slabs now: below the pushing slab's far face and above the back
+// slab's.
+std::size_t fluid_behind_slabs(sim::Simulation& sim, const sim::BoxSpec& box,
+                               const DrainageCell& c) {
+  const auto a = static_cast<size_t>(c.axis);
+  const auto slabs = sim.rigid_slabs();
+  const double half = 0.5 * c.slab_thickness;
+  sim::BinGrid behind;
+  behind.lo = box.lo;
+  behind.hi = box.hi;
+  behind.type_mask = (1u << c.wetting) | (1u << c.nonwetting);
+  behind.hi[a] = slabs[static_cast<size_t>(c.push_slab)].position - half;
+  double n = behind.hi[a] > behind.lo[a] ? sim.bin_sums(behind)[sim::kBinCount] : 0.0;
+  behind.lo[a] = slabs[static_cast<size_t>(c.back_slab)].position + half;
+  behind.hi[a] = box.hi[a];
+  if (behind.hi[a] > behind.lo[a]) n += sim.bin_sums(behind)[sim::kBinCount];
+  return static_cast<std::size_t>(n);
+}
+
 // The block series of one level and its verdicts.
 struct LevelSeries {
   std::vector<double> saturation, p_n, p_w, pc;  // block means
@@ -131,6 +150,7 @@ void run_level(sim::Simulation& sim, const sim::BoxSpec& box, const DrainagePlan
   while (true) {
     run_block(sim, box, plan, c, o, s, level);
     level.leaks.check(sim, sim.step());
+    level.behind_slabs = std::max(level.behind_slabs, fluid_behind_slabs(sim, box, c));
     if (!level.steady && halves_agree(s.saturation, w, o.tolerance)) {
       level.steady = true;
       level.steady_after = level.steps;

@@ -27,7 +27,8 @@
 // the block; the regions follow the slabs) are averaged over the same blocks: the measured Pc.
 //
 // The run stops early, flagged, when the push slab comes within 1 rc of the block (the inlet
-// reservoir is used up) or the back slab within 1 rc of the box's face.
+// reservoir is used up) or the back slab within 1 rc of the box's face. At every block the fluid
+// particles behind either slab are counted (DrainageLevel::behind_slabs).
 #include <array>
 #include <cstdint>
 #include <string>
@@ -79,6 +80,9 @@ struct DrainageLevel {
   MeanWithError pc_measured;              // p_N - p_W, block means of the difference
   std::vector<double> block_saturation;   // every block of the level, in order
   std::size_t wetting_in_block = 0, nonwetting_in_block = 0;  // at the end
+  // Fluid particles behind a slab (beyond its far face), the most at any block: a slab that lets
+  // fluid through no longer holds the pressure it applies.
+  std::size_t behind_slabs = 0;
   bool steady = false;
   std::uint64_t steady_after = 0;  // steps of this level when the steady state was detected
   std::uint64_t steps = 0;         // steps run at this level

@@ -178,6 +178,11 @@ CaseResult run_drainage_slit_case(const ValidateOptions& o) {
   r.quantities.push_back(judged("N particles beyond the membrane at the end",
                                 static_cast<double>(beyond), 0, 0, 0,
                                 "the membrane keeps N in the block", Comparison::AtMost));
+  std::size_t behind = 0;
+  for (const DrainageLevel& l : res.levels) behind = std::max(behind, l.behind_slabs);
+  r.quantities.push_back(judged(
+      "fluid particles behind a slab (worst block)", static_cast<double>(behind), 0, 0, 0,
+      "the pistons hold the fluid (else they do not apply their pressure)", Comparison::AtMost));
   const double T = res.levels.empty() ? NAN : res.levels.back().temperature;
   r.quantities.push_back(
       judged("kinetic temperature at the end", T, 0, 1.0, 0.1, "stability: thermostat at kBT = 1"));

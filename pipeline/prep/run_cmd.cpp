@@ -97,8 +97,10 @@ struct RunArgs {
   double wall_thickness_rc = 1.0;
   bool all_pores = false;
   int connectivity = 6;
-  double inlet_rc = 4, outlet_rc = 4, slab_rc = 1.0, room_rc = -1;
-  std::string wall_fill = "tiles", fluid_fill = "tiles", slab_fill = "tiles";
+  double inlet_rc = 4, outlet_rc = 4, slab_rc = 2.0, room_rc = -1;
+  // Slabs: a lattice, which holds the fluid back; fluid soaks into a slab of wall tiles and some
+  // gets through (docs/packing.md).
+  std::string wall_fill = "tiles", fluid_fill = "tiles", slab_fill = "lattice";
   double wall_density = 8.0, fluid_density = 6.5;
   std::string tiles_db;
   std::string tile_cache = default_cache_dir("tiles").string();  // "none": no cache
@@ -1007,17 +1009,17 @@ Command add_run_command(CLI::App& rockprep) {
   a->flooding_only.push_back(app->add_option("--outlet-rc", a->outlet_rc,
                                              "Source-fluid reservoir length, rc (default 4)"));
   a->flooding_only.push_back(
-      app->add_option("--slab-rc", a->slab_rc, "Slab thickness, rc (default 1)"));
+      app->add_option("--slab-rc", a->slab_rc, "Slab thickness, rc (default 2; fluid passes through 1 rc slabs)"));
   a->flooding_only.push_back(
       app->add_option("--room-rc", a->room_rc,
                       "Empty room behind the back slab, rc (default: the block's pore volume over "
                       "its cross-section, + 1)"));
-  app->add_option("--wall-fill", a->wall_fill, "tiles (default) or lattice")
+  app->add_option("--wall-fill", a->wall_fill, "lattice (default) or tiles")
       ->check(CLI::IsMember({"tiles", "lattice"}));
   app->add_option("--fluid-fill", a->fluid_fill, "tiles (default) or random")
       ->check(CLI::IsMember({"tiles", "random"}));
   a->flooding_only.push_back(
-      app->add_option("--slab-fill", a->slab_fill, "tiles (default) or lattice")
+      app->add_option("--slab-fill", a->slab_fill, "lattice (default) or tiles")
           ->check(CLI::IsMember({"tiles", "lattice"})));
   app->add_option("--wall-density", a->wall_density, "Wall particle density (default 8)");
   app->add_option("--fluid-density", a->fluid_density, "Fluid particle density (default 6.5)");

@@ -230,6 +230,7 @@ TEST(PcCommand, DrainsTheSlitUnderPressureAndKeepsNBehindTheMembrane) {
   EXPECT_GT(levels[1].at("back_position").get<double>(),
             levels[0].at("back_position").get<double>() + 0.3);
   EXPECT_TRUE(levels[1].contains("Pc_Pa"));
+  for (const auto& l : levels) EXPECT_EQ(l.at("fluid_behind_slabs").get<int>(), 0);
   EXPECT_TRUE(j.at("entry").at("found").get<bool>());
   EXPECT_EQ(j.at("entry").at("upper").get<double>(), 20.0);
   for (const char* f :
