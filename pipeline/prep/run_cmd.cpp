@@ -1008,8 +1008,8 @@ Command add_run_command(CLI::App& rockprep) {
       app->add_option("--inlet-rc", a->inlet_rc, "Working-fluid reservoir length, rc (default 4)"));
   a->flooding_only.push_back(app->add_option("--outlet-rc", a->outlet_rc,
                                              "Source-fluid reservoir length, rc (default 4)"));
-  a->flooding_only.push_back(
-      app->add_option("--slab-rc", a->slab_rc, "Slab thickness, rc (default 2; fluid passes through 1 rc slabs)"));
+  a->flooding_only.push_back(app->add_option(
+      "--slab-rc", a->slab_rc, "Slab thickness, rc (default 2; fluid passes through 1 rc slabs)"));
   a->flooding_only.push_back(
       app->add_option("--room-rc", a->room_rc,
                       "Empty room behind the back slab, rc (default: the block's pore volume over "
