@@ -131,6 +131,7 @@ CaseResult run_drainage_slit_case(const ValidateOptions& o) {
   d.back_pressure = kBackPressure;
   d.block_steps = g.block_steps;
   d.window = g.window;
+  d.tolerance = 0.02;  // the slit drains from about 0.65 to 0.1 at once
   d.measure_blocks = g.measure_blocks;
   d.max_level_steps = g.max_level_steps;
   d.sim = o.sim;
