@@ -1,5 +1,6 @@
 // `rockflow pc FLOODING/scene.toml --pressures ...`: primary-drainage capillary pressure
 // (capillary_pressure.h).
+#include <algorithm>
 #include <iomanip>
 #include <iostream>
 
@@ -35,6 +36,19 @@ void print_result(const nlohmann::json& summary, const std::string& out) {
               << e["upper"].get<double>() << "\n";
   else
     std::cout << "N did not enter the block (S_w >= 0.95 at every level)\n";
+  std::size_t behind = 0, unsteady = 0;
+  for (const auto& l : summary["levels"]) {
+    behind = std::max(behind, l["fluid_behind_slabs"].get<std::size_t>());
+    unsteady += l["steady"].get<bool>() ? 0 : 1;
+  }
+  if (behind > 0)
+    std::cout << "warning: up to " << behind
+              << " fluid particles got behind a slab, which then does not apply its pressure "
+                 "(rockprep run's default lattice slabs 2 rc thick hold the fluid)\n";
+  if (unsteady > 0)
+    std::cout << "warning: " << unsteady
+              << " level(s) not steady within --max-level-steps (measured on their last "
+                 "blocks)\n";
   if (summary["inlet_used_up"].get<bool>())
     std::cout << "stopped early: the N reservoir is used up (rockprep run --inlet-rc longer)\n";
   if (summary["room_used_up"].get<bool>())

@@ -213,7 +213,7 @@ TEST(PcCommand, DrainsTheSlitUnderPressureAndKeepsNBehindTheMembrane) {
       mesorock::test::run_command(rockflow_pc(scene, dir / "out") +
                                       "--pressures 0,20 --ramp-steps 100 --block-steps 100 "
                                       "--sample-every 20 --window 1 --measure-blocks 3 "
-                                      "--max-level-steps 700 --threads 2",
+                                      "--tolerance 0.02 --max-level-steps 700 --threads 2",
                                   dir.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("primary drainage"), std::string::npos) << r.out;
@@ -225,7 +225,7 @@ TEST(PcCommand, DrainsTheSlitUnderPressureAndKeepsNBehindTheMembrane) {
   ASSERT_EQ(levels.size(), 2u);
   const double s0 = levels[0].at("S_w").at("value").get<double>();
   const double s1 = levels[1].at("S_w").at("value").get<double>();
-  EXPECT_GT(s0, 0.95);
+  EXPECT_GT(s0, 0.9);  // neutral wetting: N creeps in a little even at Pc = 0
   EXPECT_LT(s1, s0 - 0.15);
   EXPECT_GT(levels[1].at("back_position").get<double>(),
             levels[0].at("back_position").get<double>() + 0.3);
