@@ -13,6 +13,7 @@
 #include "mesorock/version.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/progress.h"
+#include "pipeline/flow/relperm.h"
 #include "pipeline/flow/sweep.h"
 
 namespace mesorock::pipeline {
@@ -80,7 +81,7 @@ std::pair<double, double> slab_extent(const sim::ParticleSet& p, int type, int a
   return {hi - lo + spacing, sum / static_cast<double>(n)};
 }
 
-// The scene's model as two immiscible liquids (relperm's rule, relperm.h), filling s.walls.
+// The scene's model as two immiscible liquids (relperm.h make_immiscible), filling s.walls.
 void make_two_liquids(PcSetup& s, const std::string& where) {
   sim::Model& m = s.model;
   const int W = s.cell.wetting, N = s.cell.nonwetting;
@@ -89,21 +90,9 @@ void make_two_liquids(PcSetup& s, const std::string& where) {
     throw ConfigError(where +
                       ": the two fluids of the scene are different liquids (A or B of "
                       "their own pairs differ); pc makes them one liquid with two labels");
-  if (!(s.c.cross_A > s.A_WW))
-    throw ConfigError(where + ": the cross repulsion A_WN = " + fmt(s.c.cross_A) +
-                      " must be less attractive than the fluid's own A = " + fmt(s.A_WW) +
-                      " (else the two liquids mix)");
-  sim::PairSpec cross = m.pair(W, W);
-  cross.A = s.A_WN = s.c.cross_A;
-  m.set_pair(W, N, cross);
-  for (int t = 0; t < m.ntypes(); ++t) {
-    if (!m.types[static_cast<size_t>(t)].frozen) continue;
-    sim::PairSpec p = m.pair(W, t);
-    if (s.c.nonwetting_wall_A) p.A = *s.c.nonwetting_wall_A;
-    m.set_pair(N, t, p);
-    s.walls.push_back({m.types[static_cast<size_t>(t)].name, {m.pair(W, t).A, p.A}});
-  }
-  if (s.walls.empty()) throw ConfigError(where + ": the scene has no wall type (frozen particles)");
+  for (const WallAffinity& w : make_immiscible(m, W, N, s.c.cross_A, s.c.nonwetting_wall_A, where))
+    s.walls.push_back({m.types[static_cast<size_t>(w.type)].name, {w.A_SW, w.A_SN}});
+  s.A_WN = s.c.cross_A;
 }
 
 PcSetup pc_setup(const Scene& scene, const PcCommand& c, const sim::ParticleSet& particles) {

@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "pipeline/flow/drainage.h"
+#include "pipeline/flow/relperm.h"
 #include "pipeline/scene.h"
 
 namespace mesorock::pipeline {
@@ -29,7 +30,7 @@ namespace mesorock::pipeline {
 struct PcCommand {
   std::filesystem::path out_dir = "out";
   std::string wetting = "source", nonwetting = "working";  // the scene's type names
-  double cross_A = -30;                                    // A_WN (relperm's default)
+  double cross_A = kDefaultCrossA;                         // A_WN (relperm.h)
   std::optional<double> nonwetting_wall_A;                 // A_SN; default: W's own (90 degrees)
   // Levels and steady-state settings (pressures, block_steps, window, tolerance, measure_blocks,
   // max_level_steps, sample_every, sim); back_pressure and dt come from the scene.

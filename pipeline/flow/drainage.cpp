@@ -282,7 +282,7 @@ DrainageResult run_drainage(const sim::Model& model, const sim::BoxSpec& box,
     if (keep_states) result.level_states.push_back(sim->particles());
     if (result.inlet_used_up || result.room_used_up) break;
   }
-  result.final_state = keep_states ? result.level_states.back() : sim->particles();
+  if (!keep_states) result.final_state = sim->particles();
   return result;
 }
 

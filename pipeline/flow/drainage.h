@@ -99,8 +99,8 @@ struct DrainageResult {
   std::vector<DrainageLevel> levels;  // those run, in order of Pc
   bool inlet_used_up = false;         // stopped early: the push slab reached the block
   bool room_used_up = false;          // stopped early: the back slab reached the box's face
-  sim::ParticleSet final_state;
-  std::vector<sim::ParticleSet> level_states;  // the particles at the end of each level
+  sim::ParticleSet final_state;       // at the end (empty with keep_states:
+  std::vector<sim::ParticleSet> level_states;  // level_states.back() is it), each level's end
 };
 
 // Checks the cell and options against the model (ConfigError naming the problem).

@@ -84,32 +84,16 @@ sim::Model two_liquid_model(const Scene& scene, RelpermSetup& s, const std::stri
   for (int t = 0; t < m.ntypes(); ++t)
     if (t != N) m.set_pair(N, t, m.pair(W, t));
   m.set_pair(N, N, m.pair(W, W));
-  sim::PairSpec cross = m.pair(W, W);
-  if (!(s.c.cross_A > cross.A))
-    throw ConfigError(where + ": the cross repulsion A_WN = " + fmt(s.c.cross_A) +
-                      " must be less attractive than the fluid's own A = " + fmt(cross.A) +
-                      " (else the two liquids mix)");
-  cross.A = s.c.cross_A;
-  m.set_pair(W, N, cross);
-  s.cross_A = cross.A;
-  bool wall = false;
-  for (int t = 0; t < m.ntypes(); ++t) {
-    if (!m.types[static_cast<size_t>(t)].frozen) continue;
-    if (!wall)
-      s.wetting_wall_A = m.pair(W, t).A;
-    else if (m.pair(W, t).A != s.wetting_wall_A && !s.c.nonwetting_wall_A)
+  const std::vector<WallAffinity> walls =
+      make_immiscible(m, W, N, s.c.cross_A, s.c.nonwetting_wall_A, where);
+  for (const WallAffinity& w : walls)
+    if (w.A_SW != walls[0].A_SW && !s.c.nonwetting_wall_A)
       throw ConfigError(where +
                         ": the wall types attract the fluid differently; give "
                         "--nonwetting-wall-A for all of them");
-    wall = true;
-    if (s.c.nonwetting_wall_A) {
-      sim::PairSpec p = m.pair(W, t);
-      p.A = *s.c.nonwetting_wall_A;
-      m.set_pair(N, t, p);
-    }
-  }
-  if (!wall) throw ConfigError(where + ": the sample has no wall type (frozen particles)");
-  s.nonwetting_wall_A = s.c.nonwetting_wall_A.value_or(s.wetting_wall_A);
+  s.cross_A = s.c.cross_A;
+  s.wetting_wall_A = walls[0].A_SW;
+  s.nonwetting_wall_A = walls[0].A_SN;
   s.nonwetting = N;
   return m;
 }
@@ -405,6 +389,27 @@ void write_states(StagedOutputs& out, const fs::path& dir, const std::vector<Rel
 }
 
 }  // namespace
+
+std::vector<WallAffinity> make_immiscible(sim::Model& m, int W, int N, double cross_A,
+                                          std::optional<double> A_SN, const std::string& where) {
+  sim::PairSpec cross = m.pair(W, W);
+  if (!(cross_A > cross.A))
+    throw ConfigError(where + ": the cross repulsion A_WN = " + fmt(cross_A) +
+                      " must be less attractive than the fluid's own A = " + fmt(cross.A) +
+                      " (else the two liquids mix)");
+  cross.A = cross_A;
+  m.set_pair(W, N, cross);
+  std::vector<WallAffinity> walls;
+  for (int t = 0; t < m.ntypes(); ++t) {
+    if (!m.types[static_cast<size_t>(t)].frozen) continue;
+    sim::PairSpec p = m.pair(W, t);
+    if (A_SN) p.A = *A_SN;
+    m.set_pair(N, t, p);
+    walls.push_back({t, m.pair(W, t).A, p.A});
+  }
+  if (walls.empty()) throw ConfigError(where + ": the sample has no wall type (frozen particles)");
+  return walls;
+}
 
 nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) {
   const std::string where = scene.path.string() + ": relperm";

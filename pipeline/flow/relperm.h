@@ -41,6 +41,19 @@ namespace mesorock::pipeline {
 // relperm-slit, laplace-cylinder and capillary-slit).
 constexpr double kDefaultCrossA = -30.0;
 
+// One wall type's affinities to the two liquids.
+struct WallAffinity {
+  int type = 0;
+  double A_SW = 0, A_SN = 0;
+};
+
+// Makes N immiscible with W (shared by relperm and `rockflow pc`): the W-N pair is W-W's with
+// A = cross_A (ConfigError unless less attractive than A_WW: else the two mix), and N meets every
+// frozen type as W does, with A = A_SN when given. Returns each wall type's affinities;
+// ConfigError when there is no frozen type. `where` starts the messages.
+std::vector<WallAffinity> make_immiscible(sim::Model& model, int W, int N, double cross_A,
+                                          std::optional<double> A_SN, const std::string& where);
+
 struct RelpermCommand {
   // The fluid and steady-state options shared with `rockflow sweep` (out_dir, axis, types,
   // fluid_density, viscosity, run); its forces are not used.
