@@ -168,8 +168,8 @@ std::string pa_text(const PcSetup& s, double p) {
   return s.units ? fmt(s.units->pressure_pa(p)) : std::string();
 }
 
-void write_tables(StagedOutputs& out, const fs::path& dir, const DrainageResult& r,
-                  const PcSetup& s) {
+// pc.csv's text: a row per level run.
+std::string level_table(const DrainageResult& r, const PcSetup& s) {
   std::ostringstream t;
   t << std::setprecision(10);
   t << "# mesorock " << kVersion << " (" << kGitCommit << "), rockflow pc of "
@@ -192,7 +192,12 @@ void write_tables(StagedOutputs& out, const fs::path& dir, const DrainageResult&
       << l.steady_after << "," << l.steps << "," << l.restarts << "," << l.push_position << ","
       << l.back_position << "," << l.temperature << "," << l.seconds << "\n";
   }
-  out.write_text(dir / "pc.csv", t.str());
+  return t.str();
+}
+
+void write_tables(StagedOutputs& out, const fs::path& dir, const DrainageResult& r,
+                  const PcSetup& s) {
+  out.write_text(dir / "pc.csv", level_table(r, s));
   std::ostringstream b;
   b << std::setprecision(10);
   b << "# S_w in the block, each block of " << s.o.block_steps << " steps of every level\n";
@@ -353,13 +358,21 @@ nlohmann::json run_pc_command(const Scene& scene, const PcCommand& c) {
   meter.set_total(
       static_cast<double>(particles.size()) *
       static_cast<double>(prepare_steps + s.o.pressures.size() * least * s.o.block_steps));
+  std::error_code ec;
+  fs::create_directories(c.out_dir, ec);
+  if (ec) throw IoError(c.out_dir.string() + ": cannot create output folder: " + ec.message());
+  // The levels so far, rewritten (atomically) after each: a run stopped from outside, by a time
+  // limit say, keeps what it measured. Removed once the outputs are in place.
+  const fs::path partial = c.out_dir / "pc.partial.csv";
+  s.o.on_level = [&s, &partial](const DrainageResult& so_far) {
+    StagedOutputs p = StagedOutputs::files();
+    p.write_text(partial, "# partial: the run had not finished\n" + level_table(so_far, s));
+    p.commit();
+  };
   const sim::ParticleSet start = prepared_start(s, std::move(particles), meter);
   const DrainageResult r =
       run_drainage(s.model, scene.box, start, s.cell, s.o, /*keep_states=*/c.write_states);
 
-  std::error_code ec;
-  fs::create_directories(c.out_dir, ec);
-  if (ec) throw IoError(c.out_dir.string() + ": cannot create output folder: " + ec.message());
   StagedOutputs outputs = StagedOutputs::files();
   write_tables(outputs, c.out_dir, r, s);
   write_plot(outputs, c.out_dir, r, s);
@@ -371,6 +384,8 @@ nlohmann::json run_pc_command(const Scene& scene, const PcCommand& c) {
   const nlohmann::json summary = summary_of(r, s, meter);
   outputs.write_text(c.out_dir / "pc.json", summary.dump(2) + "\n");
   outputs.commit();
+  fs::remove(partial,
+             ec);  // a stale partial table would only mislead; failing to remove is harmless
   meter.finish("outputs in " + c.out_dir.string());
   return summary;
 }

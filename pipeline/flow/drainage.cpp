@@ -280,6 +280,7 @@ DrainageResult run_drainage(const sim::Model& model, const sim::BoxSpec& box,
     run_level(*sim, box, plan, c, o, level, result);
     result.levels.push_back(std::move(level));
     if (keep_states) result.level_states.push_back(sim->particles());
+    if (o.on_level) o.on_level(result);
     if (result.inlet_used_up || result.room_used_up) break;
   }
   if (!keep_states) result.final_state = sim->particles();

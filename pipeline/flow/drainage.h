@@ -31,6 +31,7 @@
 // particles behind either slab are counted (DrainageLevel::behind_slabs).
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,8 @@ struct DrainageCell {
   int push_slab = 0, back_slab = 1;   // indices into Model::rigid_slabs
   double slab_thickness = 1;          // of each slab along the axis (rc)
 };
+
+struct DrainageResult;
 
 struct DrainageOptions {
   // Pc of each level (P_push - P_back) in the order run: rising for primary drainage, then
@@ -73,6 +76,9 @@ struct DrainageOptions {
   std::uint64_t max_level_steps = 20000;
   sim::SimulationOptions sim;
   ProgressMeter* meter = nullptr;
+  // Called after each level with the levels so far (rockflow pc keeps a partial table with it,
+  // so a run stopped from outside keeps what it measured).
+  std::function<void(const DrainageResult&)> on_level;
 };
 
 struct DrainageLevel {

@@ -236,6 +236,7 @@ TEST(PcCommand, DrainsTheSlitUnderPressureAndKeepsNBehindTheMembrane) {
   for (const char* f :
        {"pc.csv", "pc_blocks.csv", "pc.png", "states/level_0.h5", "states/level_1.xmf"})
     EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  EXPECT_FALSE(fs::exists(dir / "out" / "pc.partial.csv"));  // removed once the outputs are in
   ms::ParticleFileMeta meta;
   const ms::ParticleSet end = ms::read_particle_file(dir / "out" / "states" / "level_1.h5", &meta);
   ASSERT_EQ(meta.type_names[1], "working");
@@ -247,6 +248,31 @@ TEST(PcCommand, DrainsTheSlitUnderPressureAndKeepsNBehindTheMembrane) {
     }
   EXPECT_EQ(n_beyond, 0u);
   EXPECT_EQ(n_in_block, levels[1].at("N_in_block").get<std::size_t>());
+}
+
+// A run stopped from outside (a batch system's time limit) keeps the levels it finished in
+// pc.partial.csv, and writes none of the final outputs.
+TEST(PcCommand, KeepsTheFinishedLevelsWhenStoppedFromOutside) {
+  TempDir dir;
+  const fs::path scene = dir / "scene.toml";
+  std::ofstream(scene) << kTinyFlooding;
+  const std::string pc = rockflow_pc(scene, dir / "out") +
+                         "--pressures 0,20,25 --ramp-steps 100 --block-steps 100 "
+                         "--sample-every 20 --window 1 --measure-blocks 3 --tolerance 0.02 "
+                         "--max-level-steps 5000 --threads 1";
+  const fs::path partial = dir / "out" / "pc.partial.csv";
+  const std::string q = mesorock::test::shell_quote(partial.string());
+  const CommandResult r =
+      mesorock::test::run_command("(" + pc + " & pid=$!; for i in $(seq 3000); do [ -f " + q +
+                                      " ] && break; sleep 0.1; done; kill $pid; wait $pid; true)",
+                                  dir.path());
+  ASSERT_TRUE(fs::exists(partial)) << r.err;
+  const std::string text = mesorock::test::read_file(partial);
+  EXPECT_EQ(text.rfind("# partial", 0), 0u) << text;
+  EXPECT_NE(text.find("\n0,drainage,0,"), std::string::npos) << text;
+  EXPECT_EQ(text.find("\n2,drainage,"), std::string::npos) << text;
+  for (const char* f : {"pc.csv", "pc.json", "pc.png"})
+    EXPECT_FALSE(fs::exists(dir / "out" / f)) << f;
 }
 
 // Bad input: one line naming the problem, before any step and any output.
