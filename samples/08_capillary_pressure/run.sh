@@ -62,7 +62,7 @@ case "$size" in
   full)
     shape="40,48,64"; tile_box=6; tile_eq=2000; variants=1024
     pressures="0,2.5,5,7.5,10,12.5,15,20,25,30"; imbibition="25,20,15,10,5,0"
-    steps=(--ramp-steps 3000 --block-steps 2000 --window 3 --measure-blocks 5
+    steps=(--ramp-steps 3000 --block-steps 2000 --window 4 --measure-blocks 5
       --max-level-steps 60000) ;;
   *) echo "run.sh: --size tiny, small or full" >&2; exit 2 ;;
 esac
