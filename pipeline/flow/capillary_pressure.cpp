@@ -31,8 +31,8 @@ struct PcSetup {
   DrainageCell cell;
   sim::Model model;  // two liquids, the membrane, the scene's slabs
   DrainageOptions o;
-  double A_WW = 0, A_WN = 0;
-  std::vector<std::pair<std::string, std::pair<double, double>>> walls;  // name -> (A_SW, A_SN)
+  double A_WW = 0;
+  std::vector<WallAffinity> walls;  // each wall type's A_SW and A_SN
   std::optional<sim::UnitSystem> units;
 };
 
@@ -90,14 +90,12 @@ void make_two_liquids(PcSetup& s, const std::string& where) {
     throw ConfigError(where +
                       ": the two fluids of the scene are different liquids (A or B of "
                       "their own pairs differ); pc makes them one liquid with two labels");
-  for (const WallAffinity& w : make_immiscible(m, W, N, s.c.cross_A, s.c.nonwetting_wall_A, where))
-    s.walls.push_back({m.types[static_cast<size_t>(w.type)].name, {w.A_SW, w.A_SN}});
-  s.A_WN = s.c.cross_A;
+  s.walls = make_immiscible(m, W, N, s.c.cross_A, s.c.nonwetting_wall_A, where);
 }
 
 PcSetup pc_setup(const Scene& scene, const PcCommand& c, const sim::ParticleSet& particles) {
   const std::string where = scene.path.string() + ": pc";
-  PcSetup s{scene, c, {}, scene.model, c.run, 0, 0, {}, {}};
+  PcSetup s{scene, c, {}, scene.model, c.run, 0, {}, {}};
   if (scene.stages.empty()) throw ConfigError(where + ": the scene has no [[run]] stage");
   const std::vector<double>& up = c.run.pressures;
   for (size_t k = 1; k < up.size(); ++k)
@@ -244,7 +242,8 @@ nlohmann::json levels_json(const DrainageResult& r, const PcSetup& s) {
 nlohmann::json summary_of(const DrainageResult& r, const PcSetup& s, const ProgressMeter& meter) {
   const DrainageOptions& o = s.o;
   nlohmann::json walls = nlohmann::json::object();
-  for (const auto& [name, a] : s.walls) walls[name] = {{"A_SW", a.first}, {"A_SN", a.second}};
+  for (const WallAffinity& w : s.walls)
+    walls[s.model.types[static_cast<size_t>(w.type)].name] = {{"A_SW", w.A_SW}, {"A_SN", w.A_SN}};
   const EntryPressure e = entry_pressure(r.levels, kEnteredBelow);
   nlohmann::json j = {
       {"mesorock_version", kVersion},
@@ -259,7 +258,7 @@ nlohmann::json summary_of(const DrainageResult& r, const PcSetup& s, const Progr
        {{"wetting", s.c.wetting},
         {"nonwetting", s.c.nonwetting},
         {"A_WW", s.A_WW},
-        {"A_WN", s.A_WN},
+        {"A_WN", s.c.cross_A},
         {"walls", walls},
         {"viscosity_ratio", 1.0},
         {"note",
@@ -384,8 +383,8 @@ nlohmann::json run_pc_command(const Scene& scene, const PcCommand& c) {
   const nlohmann::json summary = summary_of(r, s, meter);
   outputs.write_text(c.out_dir / "pc.json", summary.dump(2) + "\n");
   outputs.commit();
-  fs::remove(partial,
-             ec);  // a stale partial table would only mislead; failing to remove is harmless
+  // A stale partial table would only mislead; failing to remove it is harmless.
+  fs::remove(partial, ec);
   meter.finish("outputs in " + c.out_dir.string());
   return summary;
 }

@@ -109,8 +109,11 @@ struct DrainageResult {
   std::vector<DrainageLevel> levels;  // those run, in order of Pc
   bool inlet_used_up = false;         // stopped early: the push slab reached the block
   bool room_used_up = false;          // stopped early: the back slab reached the box's face
-  sim::ParticleSet final_state;       // at the end (empty with keep_states:
-  std::vector<sim::ParticleSet> level_states;  // level_states.back() is it), each level's end
+  sim::ParticleSet final_state;       // at the end, when level_states is not kept
+  std::vector<sim::ParticleSet> level_states;  // each level's end (keep_states)
+  const sim::ParticleSet& end_state() const {
+    return level_states.empty() ? final_state : level_states.back();
+  }
 };
 
 // Checks the cell and options against the model (ConfigError naming the problem).

@@ -174,8 +174,9 @@ CaseResult run_drainage_slit_case(const ValidateOptions& o) {
                                 "W refills the slit once N is no longer pushed",
                                 Comparison::AtLeast));
   std::size_t beyond = 0;
-  for (size_t i = 0; i < res.final_state.size(); ++i)
-    beyond += res.final_state.type[i] == n_type && res.final_state.x[i] >= cell.block_hi;
+  const sim::ParticleSet& end = res.end_state();
+  for (size_t i = 0; i < end.size(); ++i)
+    beyond += end.type[i] == n_type && end.x[i] >= cell.block_hi;
   r.quantities.push_back(judged("N particles beyond the membrane at the end",
                                 static_cast<double>(beyond), 0, 0, 0,
                                 "the membrane keeps N in the block", Comparison::AtMost));

@@ -1014,7 +1014,7 @@ Command add_run_command(CLI::App& rockprep) {
       app->add_option("--room-rc", a->room_rc,
                       "Empty room behind the back slab, rc (default: the block's pore volume over "
                       "its cross-section, + 1)"));
-  app->add_option("--wall-fill", a->wall_fill, "lattice (default) or tiles")
+  app->add_option("--wall-fill", a->wall_fill, "tiles (default) or lattice")
       ->check(CLI::IsMember({"tiles", "lattice"}));
   app->add_option("--fluid-fill", a->fluid_fill, "tiles (default) or random")
       ->check(CLI::IsMember({"tiles", "random"}));
