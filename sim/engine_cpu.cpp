@@ -139,6 +139,7 @@ class CpuEngine final : public Engine<Real>,
       const int end = std::min(n, (b + 1) * kBlock);
       for (int k = b * kBlock; k < end; ++k) {
         if (!region.contains(v, k)) continue;
+        if (thermal(v, k)) add_kinetic_stress(v, k, local.kinetic);
         const auto w =
             virial_of_particle<Real, typename Terms::conservative, typename Terms::thermostat,
                                typename Terms::wall_model>(v, k);
@@ -152,11 +153,41 @@ class CpuEngine final : public Engine<Real>,
     VirialSums total;
     for (const VirialSums& local : partial)
       for (int c = 0; c < 6; ++c) {
+        total.kinetic[c] += local.kinetic[c];
         total.conservative[c] += local.conservative[c];
         total.dissipative[c] += local.dissipative[c];
         total.random[c] += local.random[c];
       }
     return total;
+  }
+
+  // Serial, as bin_sums: the same sums whatever the thread count.
+  MobileSums mobile_sums() override {
+    const StepView<Real> v = s_->view();
+    MobileSums m;
+    for (int i = 0; i < v.n; ++i) {
+      if (!thermal(v, i)) continue;
+      const double u[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
+      m.v2 += u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+      m.count += 1;
+      for (int a = 0; a < 3; ++a) m.p[static_cast<size_t>(a)] += u[a];
+    }
+    return m;
+  }
+  std::vector<RigidSlabBody> slab_bodies(std::vector<double>& coordinate_sums) override {
+    const StepView<Real> v = s_->view();
+    coordinate_sums.assign(s_->slab_bodies.size(), 0.0);
+    for (int i = 0; i < v.n; ++i)
+      for (size_t k = 0; k < coordinate_sums.size(); ++k)
+        coordinate_sums[k] += double(slab_coordinate_of(v, i, static_cast<int>(k)));
+    return s_->slab_bodies;
+  }
+  SolidIntrusion solid_intrusion() override {
+    const StepView<Real> v = s_->view();
+    if (!v.solid.enabled()) return {};
+    SolidIntrusionSums sums;
+    for (int i = 0; i < v.n; ++i) sums.merge(solid_intrusion_of_particle(v, i));
+    return solid_intrusion_from(sums);
   }
 
   // Serial on purpose: the sums then come out the same whatever the thread count, and binning is

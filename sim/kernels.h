@@ -899,6 +899,15 @@ MESO_HD MESO_INLINE Real slab_force_of(const StepView<Real>& v, int i, int k) {
   return a == 0 ? v.fx[i] : (a == 1 ? v.fy[i] : v.fz[i]);
 }
 
+// Particle i's coordinate along slab k's axis if it belongs to slab k, else 0 (the slab's position
+// is their mean: Simulation::rigid_slabs).
+template <class Real>
+MESO_HD MESO_INLINE Real slab_coordinate_of(const StepView<Real>& v, int i, int k) {
+  if (v.type[i] != v.slabs.type[k] || v.ghost(i)) return Real(0);
+  const int a = v.slabs.axis[k];
+  return a == 0 ? v.x[i] : (a == 1 ? v.y[i] : v.z[i]);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Injection and ejection (sim/injection.h): the pick key of particle i, and the move of the
 // picked particle to the inlet as the injected type. Its force is zeroed (the next force pass
@@ -1000,6 +1009,66 @@ template <class Real>
 MESO_HD MESO_INLINE int bin_of_particle(const StepView<Real>& v, const BinView<Real>& b, int i) {
   if (!((b.type_mask >> v.type[i]) & 1u) || v.ghost(i)) return -1;
   return b.bin_of(v.x[i], v.y[i], v.z[i]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// A thermo row's terms per particle (Engine::mobile_sums, solid_intrusion and the kinetic part of
+// virial), summed where the particles are: a row then moves a few numbers per thread block off
+// the GPU, not the whole state. Counted: the particles that move and this rank owns.
+template <class Real>
+MESO_HD MESO_INLINE bool thermal(const StepView<Real>& v, int i) {
+  return !(((v.frozen_mask | v.slabs.mask) >> v.type[i]) & 1u) && !v.ghost(i);
+}
+
+// m v^a v^b of particle i (m = 1; Voigt order xx yy zz xy xz yz), added to k.
+template <class Real>
+MESO_HD MESO_INLINE void add_kinetic_stress(const StepView<Real>& v, int i, double k[6]) {
+  const double u[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
+  k[0] += u[0] * u[0], k[1] += u[1] * u[1], k[2] += u[2] * u[2];
+  k[3] += u[0] * u[1], k[4] += u[0] * u[2], k[5] += u[1] * u[2];
+}
+
+// The leak invariant's sums: the particles inside solid voxels and the deepest of them, ties to
+// the smaller id, so that blocks merged in any order give the serial loop's answer.
+struct SolidIntrusionSums {
+  unsigned long long inside = 0;
+  double depth = 0;
+  long long id = -1;
+  double position[3] = {0, 0, 0};
+
+  MESO_HD MESO_INLINE void merge(const SolidIntrusionSums& o) {
+    inside += o.inside;
+    if (o.id >= 0 && (id < 0 || o.depth > depth || (o.depth == depth && o.id < id))) {
+      depth = o.depth;
+      id = o.id;
+      for (int a = 0; a < 3; ++a) position[a] = o.position[a];
+    }
+  }
+};
+
+// The observable of merged sums (a run with a solid grid).
+inline SolidIntrusion solid_intrusion_from(const SolidIntrusionSums& s) {
+  SolidIntrusion r;
+  r.available = true;
+  r.inside = s.inside;
+  if (s.id >= 0) {
+    r.max_depth = s.depth;
+    r.deepest_id = s.id;
+    r.deepest_position = {s.position[0], s.position[1], s.position[2]};
+  }
+  return r;
+}
+
+// Particle i's share: empty unless it is thermal and inside a solid voxel.
+template <class Real>
+MESO_HD MESO_INLINE SolidIntrusionSums solid_intrusion_of_particle(const StepView<Real>& v, int i) {
+  SolidIntrusionSums s;
+  if (!thermal(v, i) || !v.solid.in_solid(v.x[i], v.y[i], v.z[i])) return s;
+  s.inside = 1;
+  s.depth = double(v.solid.depth(v.x[i], v.y[i], v.z[i]));
+  s.id = static_cast<long long>(v.id[i]);
+  s.position[0] = double(v.x[i]), s.position[1] = double(v.y[i]), s.position[2] = double(v.z[i]);
+  return s;
 }
 
 }  // namespace mesorock::sim

@@ -12,6 +12,23 @@
 
 namespace mesorock::sim {
 
+// The sums of a thermo row over the particles that move and a rank owns (frozen types, rigid
+// slabs and ghosts skipped: their velocities are not thermal): sum v^2, their number, sum v.
+struct MobileSums {
+  double v2 = 0, count = 0;
+  std::array<double, 3> p{0, 0, 0};
+};
+
+// The leak invariant of a run with a solid grid (sim/solid_grid.h): the mobile particles inside
+// solid voxels, and the deepest of them.
+struct SolidIntrusion {
+  bool available = false;    // false: the run has no solid grid
+  std::uint64_t inside = 0;  // mobile particles inside a solid voxel
+  double max_depth = 0;      // how deep the deepest of them is, rc (0 when none is inside)
+  std::int64_t deepest_id = -1;
+  std::array<double, 3> deepest_position{0, 0, 0};
+};
+
 // What one bin accumulates per sample: the particle count, sum v and sum v*v per component.
 enum BinField : int { kBinCount = 0, kBinVx, kBinVy, kBinVz, kBinVxx, kBinVyy, kBinVzz };
 constexpr int kBinFields = 7;

@@ -353,13 +353,13 @@ class SimulationImpl final : public Simulation {
   }
   std::vector<RigidSlabState> rigid_slabs() override;
   double kinetic_temperature() override {
-    const MobileSums m = mobile_sums(solver_.synced(), owned());
+    const MobileSums m = solver_.engine->mobile_sums();
     double s[2] = {m.v2, m.count};
     comm().sum(s, 2);
     return s[1] > 0 ? s[0] / (3.0 * s[1]) : 0.0;
   }
   std::array<double, 3> momentum() override {
-    std::array<double, 3> p = mobile_sums(solver_.synced(), owned()).p;
+    std::array<double, 3> p = solver_.engine->mobile_sums().p;
     comm().sum(p.data(), 3);
     return p;
   }
@@ -451,19 +451,12 @@ class SimulationImpl final : public Simulation {
 
 template <class Real>
 std::vector<RigidSlabState> SimulationImpl<Real>::rigid_slabs() {
-  const HostState<Real>& s = solver_.synced();
-  std::vector<double> sums(s.slab_bodies.size(), 0.0);
-  for (size_t k = 0; k < sums.size(); ++k) {
-    const RigidSlabBody& b = s.slab_bodies[k];
-    const std::vector<Real>& pos = b.axis == 0 ? s.x : (b.axis == 1 ? s.y : s.z);
-    solver_.for_owned([&](int i) {
-      if (s.type[i] == b.type) sums[k] += pos[i];
-    });
-  }
+  std::vector<double> sums;
+  const std::vector<RigidSlabBody> bodies = solver_.engine->slab_bodies(sums);
   if (!sums.empty()) comm().sum(sums.data(), static_cast<int>(sums.size()));
   std::vector<RigidSlabState> out;
   for (size_t k = 0; k < sums.size(); ++k) {
-    const RigidSlabBody& b = s.slab_bodies[k];
+    const RigidSlabBody& b = bodies[k];
     RigidSlabState r;
     r.type = model_.types[static_cast<size_t>(b.type)].name;
     r.axis = b.axis;
@@ -480,7 +473,7 @@ std::vector<RigidSlabState> SimulationImpl<Real>::rigid_slabs() {
 template <class Real>
 SolidIntrusion SimulationImpl<Real>::solid_intrusion() {
   if (!solver_.host.solid.enabled()) return {};
-  const SolidIntrusion r = solid_intrusion_of(solver_.synced(), owned());
+  const SolidIntrusion r = solver_.engine->solid_intrusion();
   // The counts add up; the deepest particle travels from its rank (depth first, then id).
   std::uint64_t inside = r.inside;
   comm().sum(&inside, 1);
@@ -512,11 +505,9 @@ SolidIntrusion SimulationImpl<Real>::solid_intrusion() {
 template <class Real>
 StressSample SimulationImpl<Real>::stress_of(const VirialRegion<Real>& region, double volume) {
   double sums[24] = {};
-  const std::array<double, 6> kinetic =
-      kinetic_stress_sums(solver_.synced(), region);  // ghosts are never in a region
-  const VirialSums w = solver_.engine->virial(region);
+  const VirialSums w = solver_.engine->virial(region);  // ghosts are never in a region
   for (int c = 0; c < 6; ++c) {
-    sums[c] = kinetic[c];
+    sums[c] = w.kinetic[c];
     sums[6 + c] = w.conservative[c];
     sums[12 + c] = w.dissipative[c];
     sums[18 + c] = w.random[c];

@@ -107,15 +107,8 @@ struct RigidSlabState {
   double position = 0, velocity = 0, force = 0, applied_force = 0, mass = 0;
 };
 
-// The leak invariant (sim/solid_grid.h): the mobile particles inside the solid grid's solid
-// voxels, i.e. past the no-slip surface into a grain. Rigid slabs are not counted.
-struct SolidIntrusion {
-  bool available = false;    // false: the run has no solid grid
-  std::uint64_t inside = 0;  // mobile particles inside a solid voxel
-  double max_depth = 0;      // how deep the deepest of them is, rc (0 when none is inside)
-  std::int64_t deepest_id = -1;
-  std::array<double, 3> deepest_position{0, 0, 0};
-};
+// SolidIntrusion (sim/observables.h): the leak invariant, the mobile particles inside the solid
+// grid's solid voxels, i.e. past the no-slip surface into a grain. Rigid slabs are not counted.
 
 // The particles a region's stress covers: the given types inside the box [lo, hi).
 struct RegionSelection {

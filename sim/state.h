@@ -129,6 +129,7 @@ struct HostState {
 
 // Sums over particles of the per-particle virial halves (see virial_of_particle).
 struct VirialSums {
+  double kinetic[6] = {0, 0, 0, 0, 0, 0};  // sum m v^a v^b of the thermal particles in the region
   double conservative[6] = {0, 0, 0, 0, 0, 0};
   double dissipative[6] = {0, 0, 0, 0, 0, 0};
   double random[6] = {0, 0, 0, 0, 0, 0};
@@ -158,6 +159,13 @@ class Engine {
   // used (the pair RNG is keyed by step, so nothing needs storing).
   // `region` restricts the sum to the particles of some types inside a box (region pressure).
   virtual VirialSums virial(const VirialRegion<Real>& region = {}) = 0;
+  // A thermo row's sums over this rank's mobile particles (kernels.h thermal), where they are.
+  virtual MobileSums mobile_sums() = 0;
+  // The leak invariant over the same particles (not available without a solid grid).
+  virtual SolidIntrusion solid_intrusion() = 0;
+  // The rigid slabs' bodies, and per slab the sum of this rank's slab particles' coordinates
+  // along its axis (kernels.h slab_coordinate_of).
+  virtual std::vector<RigidSlabBody> slab_bodies(std::vector<double>& coordinate_sums) = 0;
   // Per-bin sums (kBinFields per bin, see observables.h) over the current configuration.
   virtual void bin_sums(const BinGrid& grid, std::vector<double>& sums) = 0;
   virtual std::uint64_t step() const = 0;

@@ -353,13 +353,17 @@ __global__ void slab_half_kick_kernel(RigidSlabBody* bodies, int count, double d
   half[k] = static_cast<Real>(bodies[k].half_velocity);
 }
 
-template <class Real>
+// kCoordinates: the same reduction of the slab particles' coordinates along the axis (their
+// positions for Simulation::rigid_slabs), not of their forces.
+template <class Real, bool kCoordinates = false>
 __global__ void slab_partials_kernel(StepView<Real> v, double* partials) {
   using BlockReduce = cub::BlockReduce<double, kBlock>;
   __shared__ typename BlockReduce::TempStorage temp;
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   for (int k = 0; k < v.slabs.count; ++k) {
-    const double f = i < v.n ? static_cast<double>(slab_force_of(v, i, k)) : 0.0;
+    double f = 0;
+    if (i < v.n)
+      f = static_cast<double>(kCoordinates ? slab_coordinate_of(v, i, k) : slab_force_of(v, i, k));
     const double sum = BlockReduce(temp).Sum(f);
     if (threadIdx.x == 0) partials[static_cast<size_t>(k) * gridDim.x + blockIdx.x] = sum;
     __syncthreads();
@@ -609,20 +613,69 @@ __global__ void moved_kernel(StepView<Real> v, const Real* x0, const Real* y0, c
 // Virial of each particle, summed per thread block (fixed tree order, so the result is the same
 // every run); the host adds the per-block partials in block order. 18 doubles per block instead
 // of per particle keeps the stress observable within the memory budget.
+constexpr int kVirialSumsPerBlock = 24;  // VirialSums: conservative, dissipative, random, kinetic
 template <class Real, class C, class T, class W>
 __global__ void virial_kernel(StepView<Real> v, VirialRegion<Real> region, double* block_sums) {
   using BlockReduce = cub::BlockReduce<double, kBlock>;
   __shared__ typename BlockReduce::TempStorage temp;
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   ParticleVirial<Real> w;
-  if (i < v.n && region.contains(v, i)) w = virial_of_particle<Real, C, T, W>(v, i);
-  const Real* parts[3] = {w.conservative, w.dissipative, w.random};
-  for (int p = 0; p < 3; ++p)
+  double kinetic[6] = {0, 0, 0, 0, 0, 0};
+  if (i < v.n && region.contains(v, i)) {
+    w = virial_of_particle<Real, C, T, W>(v, i);
+    if (thermal(v, i)) add_kinetic_stress(v, i, kinetic);
+  }
+  double parts[4][6];  // in the order of kVirialSumsPerBlock
+  for (int c = 0; c < 6; ++c) {
+    parts[0][c] = static_cast<double>(w.conservative[c]);
+    parts[1][c] = static_cast<double>(w.dissipative[c]);
+    parts[2][c] = static_cast<double>(w.random[c]);
+    parts[3][c] = kinetic[c];
+  }
+  for (int p = 0; p < 4; ++p)
     for (int c = 0; c < 6; ++c) {
-      const double total = BlockReduce(temp).Sum(static_cast<double>(parts[p][c]));
-      if (threadIdx.x == 0) block_sums[18 * blockIdx.x + 6 * p + c] = total;
+      const double total = BlockReduce(temp).Sum(parts[p][c]);
+      if (threadIdx.x == 0) block_sums[kVirialSumsPerBlock * blockIdx.x + 6 * p + c] = total;
       __syncthreads();  // temp is reused by the next reduction
     }
+}
+
+// A thermo row's mobile sums (Engine::mobile_sums: sum v^2, count, sum v) per thread block, in a
+// fixed tree order; the host adds the blocks in block order.
+constexpr int kMobileSumsPerBlock = 5;
+template <class Real>
+__global__ void mobile_sums_kernel(StepView<Real> v, double* block_sums) {
+  using BlockReduce = cub::BlockReduce<double, kBlock>;
+  __shared__ typename BlockReduce::TempStorage temp;
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  double s[kMobileSumsPerBlock] = {0, 0, 0, 0, 0};
+  if (i < v.n && thermal(v, i)) {
+    const double u[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
+    s[0] = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    s[1] = 1;
+    s[2] = u[0], s[3] = u[1], s[4] = u[2];
+  }
+  for (int c = 0; c < kMobileSumsPerBlock; ++c) {
+    const double total = BlockReduce(temp).Sum(s[c]);
+    if (threadIdx.x == 0) block_sums[kMobileSumsPerBlock * blockIdx.x + c] = total;
+    __syncthreads();
+  }
+}
+
+// The leak invariant per thread block: a tree in shared memory (raw storage: a __shared__ array
+// of a type with member initialisers is not allowed), merged by the host in block order.
+template <class Real>
+__global__ void solid_intrusion_kernel(StepView<Real> v, SolidIntrusionSums* block_sums) {
+  __shared__ alignas(SolidIntrusionSums) unsigned char raw[kBlock * sizeof(SolidIntrusionSums)];
+  auto* s = reinterpret_cast<SolidIntrusionSums*>(raw);
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  s[threadIdx.x] = i < v.n ? solid_intrusion_of_particle(v, i) : SolidIntrusionSums{};
+  __syncthreads();
+  for (int stride = kBlock / 2; stride > 0; stride /= 2) {
+    if (static_cast<int>(threadIdx.x) < stride) s[threadIdx.x].merge(s[threadIdx.x + stride]);
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) block_sums[blockIdx.x] = s[0];
 }
 
 // The watchdog's check after a step (sim/watchdog.h); hits go to the record in device memory.
@@ -981,19 +1034,76 @@ class CudaEngine final : public Engine<Real>,
   VirialSums virial(const VirialRegion<Real>& region) override {
     // Allocated on first use only: runs that never ask for stress own no such buffer.
     const int g = blocks_for(n_);
-    virial_.resize(static_cast<size_t>(18) * g);
-    virial_kernel<Real, C, T, W><<<g, kBlock>>>(view(), region, virial_.get());
-    check(cudaGetLastError(), "virial kernel");
-    std::vector<double> h;
-    virial_.download(h);
+    const std::vector<double> t = summed_blocks(
+        virial_, kVirialSumsPerBlock, g, "virial kernel",
+        [&](double* out) { virial_kernel<Real, C, T, W><<<g, kBlock>>>(view(), region, out); });
     VirialSums s;
-    for (int b = 0; b < g; ++b)
-      for (int c = 0; c < 6; ++c) {
-        s.conservative[c] += h[18 * static_cast<size_t>(b) + c];
-        s.dissipative[c] += h[18 * static_cast<size_t>(b) + 6 + c];
-        s.random[c] += h[18 * static_cast<size_t>(b) + 12 + c];
-      }
+    for (int c = 0; c < 6; ++c) {
+      s.conservative[c] = t[c];
+      s.dissipative[c] = t[6 + c];
+      s.random[c] = t[12 + c];
+      s.kinetic[c] = t[18 + c];
+    }
     return s;
+  }
+
+  MobileSums mobile_sums() override {
+    const int g = blocks_for(n_);
+    const std::vector<double> t =
+        summed_blocks(thermo_, kMobileSumsPerBlock, g, "mobile sums kernel",
+                      [&](double* out) { mobile_sums_kernel<Real><<<g, kBlock>>>(view(), out); });
+    MobileSums m;
+    m.v2 = t[0];
+    m.count = t[1];
+    for (int a = 0; a < 3; ++a) m.p[static_cast<size_t>(a)] = t[2 + a];
+    return m;
+  }
+
+  std::vector<RigidSlabBody> slab_bodies(std::vector<double>& coordinate_sums) override {
+    std::vector<RigidSlabBody> bodies;
+    if (nslabs_ > 0) slab_bodies_.download(bodies);
+    coordinate_sums.assign(bodies.size(), 0.0);
+    if (bodies.empty()) return bodies;
+    const int g = blocks_for(n_);
+    slab_coordinates_.resize(bodies.size() * static_cast<size_t>(g));
+    slab_partials_kernel<Real, true><<<g, kBlock>>>(view(), slab_coordinates_.get());
+    check(cudaGetLastError(), "slab coordinates kernel");
+    std::vector<double> h;
+    slab_coordinates_.download(h);
+    for (size_t k = 0; k < bodies.size(); ++k)
+      for (int b = 0; b < g; ++b) coordinate_sums[k] += h[k * static_cast<size_t>(g) + b];
+    return bodies;
+  }
+
+  SolidIntrusion solid_intrusion() override {
+    if (!host_->solid.enabled()) return {};
+    const int g = blocks_for(n_);
+    intrusion_.resize(static_cast<size_t>(g));
+    solid_intrusion_kernel<Real><<<g, kBlock>>>(view(), intrusion_.get());
+    check(cudaGetLastError(), "solid intrusion kernel");
+    std::vector<SolidIntrusionSums> h;
+    intrusion_.download(h);
+    SolidIntrusionSums total;
+    for (const SolidIntrusionSums& b : h) total.merge(b);
+    return solid_intrusion_from(total);
+  }
+
+  // A reduction that `launch` writes per thread block, `fields` doubles each, into `buffer`
+  // (allocated on first use): each field summed over the blocks in block order, the same bits
+  // every run.
+  template <class Launch>
+  std::vector<double> summed_blocks(DeviceBuffer<double>& buffer, int fields, int blocks,
+                                    const char* what, Launch&& launch) {
+    buffer.resize(static_cast<size_t>(fields) * static_cast<size_t>(blocks));
+    launch(buffer.get());
+    check(cudaGetLastError(), what);
+    std::vector<double> h;
+    buffer.download(h);
+    std::vector<double> total(static_cast<size_t>(fields), 0.0);
+    for (int b = 0; b < blocks; ++b)
+      for (int c = 0; c < fields; ++c)
+        total[static_cast<size_t>(c)] += h[static_cast<size_t>(fields) * b + c];
+    return total;
   }
 
   void bin_sums(const BinGrid& grid, std::vector<double>& sums) override {
@@ -1494,7 +1604,9 @@ class CudaEngine final : public Engine<Real>,
       b += a->size() * sizeof(int);
     b += sort_temp_.size() + solid_.size() + left_to_grid_.size() + left_to_grid_alt_.size() +
          table_.size() * sizeof(PairParams<Real>) +
-         (virial_.size() + bins_.size()) * sizeof(double);
+         (virial_.size() + bins_.size() + thermo_.size() + slab_coordinates_.size()) *
+             sizeof(double) +
+         intrusion_.size() * sizeof(SolidIntrusionSums);
     return b;
   }
 
@@ -1691,7 +1803,8 @@ class CudaEngine final : public Engine<Real>,
   DeviceBuffer<unsigned char> sort_temp_;
   DeviceBuffer<PairParams<Real>> table_;
   DeviceBuffer<Real> body_force_;
-  DeviceBuffer<double> virial_, bins_;
+  DeviceBuffer<double> virial_, bins_, thermo_, slab_coordinates_;  // allocated on first use
+  DeviceBuffer<SolidIntrusionSums> intrusion_;
   DeviceBuffer<Real> bvf_, kappa_;    // wall model only
   DeviceBuffer<std::uint8_t> solid_;  // the solid grid's voxels (scenes with one only)
   // StepView::left_to_grid and the second buffer a sort moves it into (solid grid and wall model)

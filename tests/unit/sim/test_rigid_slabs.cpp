@@ -85,14 +85,19 @@ TEST_P(RigidSlab, PistonCompressesTheFluidToThePressureItApplies) {
   EXPECT_EQ(leaked, 0) << "fluid particles got past the slab";
   EXPECT_LT(slab_v, 0.15) << "thermal: sqrt(kBT / M) = 0.08 for M = 144";
   // The slab's particles move as one body: equal velocities, none across the axis.
+  // Its position is the mean of its particles' (summed by the engine, on the GPU where they are).
   const ms::ParticleSet p = sim->particles();
   const double V = sim->rigid_slabs()[0].velocity;
+  double x_sum = 0, count = 0;
   for (size_t i = 0; i < p.size(); ++i)
     if (p.type[i] == 1) {
       ASSERT_NEAR(p.vx[i], V, 1e-6 * (1 + std::abs(V)));
       ASSERT_EQ(p.vy[i], 0.0);
       ASSERT_EQ(p.vz[i], 0.0);
+      x_sum += p.x[i];
+      count += 1;
     }
+  EXPECT_NEAR(sim->rigid_slabs()[0].position, x_sum / count, 1e-9);
 }
 
 TEST_P(RigidSlab, RefusesFrozenOrEmptySlabs) {

@@ -5,6 +5,7 @@
 // without (the leak invariant counts it, the watchdog stops it).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -269,6 +270,52 @@ TEST_P(Solid, FluidPressedOntoAHollowGrainLeaksWithoutTheBounceAndNotWithIt) {
       static_cast<unsigned long long>(most[0]), static_cast<unsigned long long>(most[1]));
   EXPECT_GT(most[0], 5u) << "the set-up must press fluid into the unprotected grain";
   EXPECT_EQ(most[1], 0u);
+}
+
+// A thermo row's sums come from the engine where the particles are (on the GPU, no download):
+// temperature, momentum, kinetic stress and the leak invariant against the same sums over the
+// particles on the host, with fluid inside the grain (no bounce) and frozen walls to skip.
+TEST_P(Solid, ThermoRowSumsAreThoseOfTheParticles) {
+  Scenario s = fluid_around_a_hollow_grain(false);
+  ms::SimulationOptions o = options();
+  o.threads = 1;
+  auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, o);
+  sim->run(300);
+  const ms::ParticleSet p = sim->particles();
+  double v2 = 0, count = 0, mom[3] = {0, 0, 0}, kin[6] = {0, 0, 0, 0, 0, 0};
+  std::uint64_t inside = 0;
+  double deepest = -1;
+  std::int64_t deepest_id = -1;
+  for (size_t i = 0; i < p.size(); ++i) {
+    if (p.type[i] != 0) continue;  // the frozen wall
+    const double u[3] = {p.vx[i], p.vy[i], p.vz[i]};
+    v2 += u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+    count += 1;
+    for (int a = 0; a < 3; ++a) mom[a] += u[a];
+    const double k[6] = {u[0] * u[0], u[1] * u[1], u[2] * u[2],
+                         u[0] * u[1], u[0] * u[2], u[1] * u[2]};
+    for (int c = 0; c < 6; ++c) kin[c] += k[c];
+    const double x[3] = {p.x[i], p.y[i], p.z[i]};
+    double depth = 1e300;  // the grain is the cube [2, 4)^3: depth = distance to its nearest face
+    for (double c : x) depth = std::min({depth, c - 2, 4 - c});
+    if (depth <= 0) continue;
+    ++inside;
+    if (depth > deepest + 1e-9 || (std::abs(depth - deepest) <= 1e-9 && p.id[i] < deepest_id)) {
+      deepest = depth;
+      deepest_id = p.id[i];
+    }
+  }
+  ASSERT_GT(inside, 0u) << "the set-up must press fluid into the grain";
+  EXPECT_NEAR(sim->kinetic_temperature(), v2 / (3 * count), 1e-9);
+  const auto m = sim->momentum();
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(m[a], mom[a], 1e-9 * count);
+  const ms::StressSample st = sim->stress();
+  for (int c = 0; c < 6; ++c) EXPECT_NEAR(st.kinetic[c] * 216, kin[c], 1e-9 * count) << c;
+  const ms::SolidIntrusion in = sim->solid_intrusion();
+  ASSERT_TRUE(in.available);
+  EXPECT_EQ(in.inside, inside);
+  EXPECT_NEAR(in.max_depth, deepest, 1e-5);
+  EXPECT_EQ(in.deepest_id, deepest_id);
 }
 
 TEST_P(Solid, TheWatchdogStopsAParticleDeepInTheSolid) {
