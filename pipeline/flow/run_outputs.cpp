@@ -62,6 +62,7 @@ struct ScalarSeries {
 // solid grid, the leak invariant; the averaged stages' rows feed summary.json's averages.
 class ThermoOutput final : public RunOutput {
  public:
+  std::string name() const override { return "thermo"; }
   explicit ThermoOutput(RunContext& run) : run_(run), every_(run.scene.output.thermo_every) {
     if (every_ > 0)
       file_.open_in(run,
@@ -143,6 +144,7 @@ class ThermoRowOutput : public RunOutput {
 // slabs.csv: the rigid slabs at every thermo row.
 class SlabOutput final : public ThermoRowOutput {
  public:
+  std::string name() const override { return "slabs"; }
   explicit SlabOutput(RunContext& run) : ThermoRowOutput(run, "slabs.csv") {
     open(
         ": rigid slabs; position = mean coordinate of the slab's particles along its axis; force "
@@ -176,6 +178,7 @@ class SlabOutput final : public ThermoRowOutput {
 // injection.csv: particles moved by each injection/ejection boundary, at every thermo row.
 class InjectionOutput final : public ThermoRowOutput {
  public:
+  std::string name() const override { return "injection"; }
   explicit InjectionOutput(RunContext& run)
       : ThermoRowOutput(run, "injection.csv"),
         injected_before_(run.scene.model.injections.size(), 0.0),
@@ -248,6 +251,7 @@ class InjectionOutput final : public ThermoRowOutput {
 // starts afresh on --resume (the rank count may differ).
 class BalanceOutput final : public ThermoRowOutput {
  public:
+  std::string name() const override { return "balance"; }
   explicit BalanceOutput(RunContext& run) : ThermoRowOutput(run, "balance.csv", false) {
     std::string columns = "step,time,stage,imbalance";
     for (int r = 0; r < run.sim.ranks(); ++r) columns += ",cost_rank" + std::to_string(r);
@@ -304,6 +308,7 @@ std::string step_name(std::uint64_t step) {
 // complete in itself: a failure later in the run leaves it, and the checkpoint, in place.
 class SnapshotOutput final : public RunOutput {
  public:
+  std::string name() const override { return "snapshots"; }
   explicit SnapshotOutput(RunContext& run) : run_(run), every_(run.scene.output.snapshot_every) {}
   std::uint64_t steps_to_next(const RunPoint& at) const override {
     return steps_to_multiple(at.step, every_);
@@ -334,6 +339,7 @@ class SnapshotOutput final : public RunOutput {
 // final.h5 + final.xmf: the particles at the end.
 class FinalSnapshotOutput final : public RunOutput {
  public:
+  std::string name() const override { return "final snapshot"; }
   explicit FinalSnapshotOutput(RunContext& run) : run_(run) {}
   std::uint64_t steps_to_next(const RunPoint&) const override { return kNeverDue; }
   void sample(const RunPoint&) override {}
@@ -372,6 +378,7 @@ sim::BinGrid bin_grid_of(const Scene& scene, const BinnedOutputSpec& spec) {
 // A time-averaged profile or field: sampled in the averaged stages, written at the end.
 class BinnedOutput final : public RunOutput {
  public:
+  std::string name() const override { return spec_.name; }
   BinnedOutput(RunContext& run, const BinnedOutputSpec& spec)
       : run_(run), spec_(spec), average_(bin_grid_of(run.scene, spec)) {
     if (run.resumed) run.resumed->get_binned(key(), average_);
@@ -416,6 +423,7 @@ struct RegionRun {
 // [[output.regions]]: regions.csv, and saturation.csv and region_pressure.csv when a region asks.
 class RegionsOutput final : public RunOutput {
  public:
+  std::string name() const override { return "regions"; }
   explicit RegionsOutput(RunContext& run);
   std::uint64_t steps_to_next(const RunPoint& at) const override {
     std::uint64_t n = kNeverDue;

@@ -139,8 +139,9 @@ void Runner::run_stage(const StageSpec& stage, std::uint64_t done) {
     const std::uint64_t n = next_chunk(stage, done, averaged);
     const auto t_chunk = Clock::now();
     sim_.run(n);
-    seconds_per_step_ =
-        std::chrono::duration<double>(Clock::now() - t_chunk).count() / static_cast<double>(n);
+    const double chunk_seconds = std::chrono::duration<double>(Clock::now() - t_chunk).count();
+    step_seconds_ += chunk_seconds;
+    seconds_per_step_ = chunk_seconds / static_cast<double>(n);
     done += n;
     // From the stage's start, so that the time does not depend on how the stage was chunked.
     time_ = stage_time_ + static_cast<double>(done) * stage.dt;
@@ -167,10 +168,19 @@ std::uint64_t Runner::next_chunk(const StageSpec& stage, std::uint64_t done, boo
 }
 
 void Runner::after_chunk(const RunPoint& at) {
-  for (auto& o : outputs_) o->sample(at);
+  output_seconds_.resize(outputs_.size(), 0.0);
+  for (size_t k = 0; k < outputs_.size(); ++k) {
+    const auto t = Clock::now();
+    outputs_[k]->sample(at);
+    output_seconds_[k] += std::chrono::duration<double>(Clock::now() - t).count();
+  }
   const int signal = interrupt_requested();
   const bool checkpoint_due = is_multiple(at.step, checkpoint_every_);
-  if (checkpoint_due) save_checkpoint();
+  if (checkpoint_due) {
+    const auto t = Clock::now();
+    save_checkpoint();
+    checkpoint_seconds_ += std::chrono::duration<double>(Clock::now() - t).count();
+  }
   if (!signal) return;
   // One rank: a checkpoint of this step. Several: their signals need not arrive at one step, so
   // each stops where it is (mpirun ends the rest) without a checkpoint.
@@ -282,6 +292,19 @@ void Runner::finish() {
       seconds > 0 ? mobile * static_cast<double>(total_steps_) / seconds / 1e6 : 0.0;
   summary["mobile_particles"] = mobile;
   summary["mobile_mps"] = mobile_mps;
+  // Where the run's time went (this process's share of a resumed run): what the outputs cost
+  // beside the steps tells a user which output to sample less often.
+  nlohmann::json outputs = nlohmann::json::object();
+  double output_total = 0;
+  for (size_t k = 0; k < output_seconds_.size(); ++k) {
+    if (output_seconds_[k] <= 0) continue;
+    outputs[outputs_[k]->name()] = output_seconds_[k];
+    output_total += output_seconds_[k];
+  }
+  summary["time_split"] = {{"steps_seconds", step_seconds_},
+                           {"outputs_seconds", output_total},
+                           {"outputs", outputs},
+                           {"checkpoints_seconds", checkpoint_seconds_}};
   const std::string profile = sim_.profile_report();  // empty unless --profile on the GPU
   if (!profile.empty()) summary["profile"] = profile;
   for (auto& o : outputs_) o->summarize(summary);
@@ -292,11 +315,15 @@ void Runner::finish() {
     // The run is complete: its outputs hold the final state, and the checkpoint is spent.
     fs::remove(checkpoint_file_, ec);
   }
-  if (progress_)
+  if (progress_) {
     std::cerr << "rockflow: done: " << total_steps_ << " steps in " << std::setprecision(3)
               << seconds << " s (" << summary["mps"].get<double>() << " MPS/s, " << mobile_mps
-              << " of mobile particles); outputs in " << options_.out_dir.string()
+              << " of mobile particles; stepping " << step_seconds_ << " s, outputs "
+              << output_total << " s";
+    if (checkpoint_seconds_ > 0) std::cerr << ", checkpoints " << checkpoint_seconds_ << " s";
+    std::cerr << "); outputs in " << options_.out_dir.string()
               << " (summary.json, thermo.csv, final.xmf opens in ParaView)\n";
+  }
   if (progress_ && !profile.empty()) std::cerr << "rockflow: " << profile << "\n";
 }
 

@@ -80,6 +80,8 @@ inline bool is_multiple(std::uint64_t step, std::uint64_t every) {
 class RunOutput {
  public:
   virtual ~RunOutput() = default;
+  // What summary.json's time split calls it ("thermo", "regions", ...).
+  virtual std::string name() const = 0;
 
   // Steps from at.step to this output's next sample (at least 1), or kNeverDue. The runner never
   // steps past it, so that sample() sees the step it is due at.
@@ -136,6 +138,10 @@ class Runner {
   double stage_time_ = 0;          // simulated time at the start of the current stage
   std::uint64_t total_steps_ = 0;  // steps of the stages run through (all of each)
   double seconds_per_step_ = 0;    // measured on the last chunk of steps
+  // Where this process's run time went: stepping, each output's samples (by outputs_ index) and
+  // the checkpoints. summary.json's "time_split".
+  double step_seconds_ = 0, checkpoint_seconds_ = 0;
+  std::vector<double> output_seconds_;
 };
 
 }  // namespace mesorock::pipeline

@@ -424,4 +424,15 @@ thermo_every = 10
   ASSERT_GT(mps, 0.0);
   EXPECT_NEAR(summary.at("mobile_mps").get<double>(), mps * 250.0 / 320.0, 1e-9 * mps);
   EXPECT_NE(r.err.find("of mobile particles"), std::string::npos) << r.err;
+  // Where the time went: stepping and the thermo rows (3 of them), within the run's seconds.
+  const auto& split = summary.at("time_split");
+  const double stepping = split.at("steps_seconds").get<double>();
+  const double outputs = split.at("outputs_seconds").get<double>();
+  EXPECT_GT(stepping, 0.0);
+  EXPECT_GT(split.at("outputs").at("thermo").get<double>(), 0.0);
+  double each = 0;
+  for (const auto& [name, seconds] : split.at("outputs").items()) each += seconds.get<double>();
+  EXPECT_NEAR(outputs, each, 1e-12 + 1e-9 * outputs);
+  EXPECT_LE(stepping + outputs, summary.at("run_seconds").get<double>() * (1 + 1e-9));
+  EXPECT_NE(r.err.find("stepping"), std::string::npos) << r.err;
 }
