@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Where users run (docs/benchmarks.md, "The issue's Berea crop where users run"): the GPU tests,
+# then the issue's Berea scenes (100^3 crop at 0.5 and at rockprep's own 0.85 rc per voxel) run
+# by `rockflow run` and by a short `rockflow sweep`, with a reference binary (rockflow-old) and
+# the new one alternating; the new summaries' time split (stepping against each output).
+# Bundle (.carry/gpu/bins.tar.xz): rockflow, rockflow-old, rockprep, unit_gpu, unit_sim, stripped;
+# .carry/gpu/lib and rockprep-libs.tar.xz as scripts/gpu/build_bundle.sh (ROCKPREP=1) makes
+# them; the image in .carry/rock (never committed). TESTS=0 skips the tests.
+set -uo pipefail
+cd "$(dirname "$0")/../.."
+export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
+mkdir -p .carry/gpu/bin && tar xJf .carry/gpu/bins.tar.xz -C .carry/gpu/bin
+mkdir -p /tmp/rockprep-libs && tar xJf .carry/gpu/rockprep-libs.tar.xz -C /tmp/rockprep-libs
+B=$PWD/.carry/gpu/bin; O=${OUT:-/tmp/out}; W=/tmp/r16; mkdir -p $O $W
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee $O/gpu.txt
+cat .carry/gpu/COMMIT | tee -a $O/gpu.txt
+if [ "${TESTS:-1}" = 1 ]; then
+  $B/unit_gpu > $W/unit_gpu.txt 2>&1; echo "unit_gpu rc=$? $(grep -E '^\[  (PASSED|FAILED)' $W/unit_gpu.txt | tr '\n' ' ')"
+  $B/unit_sim --gtest_filter='*CUDA*:*Cuda*:*Gpu*:*Ensemble*:*Solid*:*Watchdog*:*Wall*:*Checkpoint*' \
+    > $W/unit_sim.txt 2>&1
+  echo "unit_sim rc=$? $(grep -E '^\[  (PASSED|FAILED)' $W/unit_sim.txt | tr '\n' ' ')"
+  grep -E "^\[  FAILED" $W/unit_gpu.txt $W/unit_sim.txt | head
+fi
+for r in 05 085; do
+  extra=(); [ $r = 05 ] && extra=(--rc-per-voxel 0.5)
+  $B/rockprep run .carry/rock/berea_100_to_300.npz --labels true=pore,false=solid \
+    --crop 0:100,0:100,0:100 --spacing 5.345,5.345,5.345 --unit um --layout permeability \
+    --threads $(nproc) --seed 7 "${extra[@]}" --out $W/S$r > $W/prep$r.log 2>&1 || tail -3 $W/prep$r.log
+  grep summary $W/prep$r.log
+done
+for round in 1 2; do
+  for r in 05 085; do
+    for bin in rockflow-old rockflow; do
+      $B/$bin run $W/S$r/scene.toml --backend cuda --out $W/run_${bin}_$r > $W/run.txt 2>&1
+      echo "run S$r $bin r$round rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"
+    done
+  done
+  for bin in rockflow-old rockflow; do
+    t=$(date +%s.%N)
+    $B/$bin sweep $W/S05/scene.toml --backend cuda --out $W/sweep_$bin --forces 0.02 \
+      --viscosity 6.111 --viscosity-error 0.041 --warmup 1000 --block-steps 500 --window 2 \
+      --measure-blocks 2 --max-steps 4000 > $W/sweep.txt 2>&1
+    echo "sweep S05 $bin r$round rc=$? $(python3 -c "print(round($(date +%s.%N) - $t, 2))") s: $(grep -iE 'MPS' $W/sweep.txt | tail -1)"
+  done
+done
+for r in 05 085; do cp $W/run_rockflow_$r/summary.json $O/summary_new_$r.json; cp $W/run_rockflow-old_$r/summary.json $O/summary_old_$r.json; done
+cp $W/run_rockflow_085/thermo.csv $O/thermo_new_085.csv; cp $W/run_rockflow-old_085/thermo.csv $O/thermo_old_085.csv
+python3 - <<'PY'
+import json
+for r in ('05','085'):
+    n=json.load(open(f'/tmp/r16/run_rockflow_{r}/summary.json')); o=json.load(open(f'/tmp/r16/run_rockflow-old_{r}/summary.json'))
+    print(r, 'time_split', n.get('time_split'))
+    print(r, 'T old/new', o['final_temperature'], n['final_temperature'], 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
+PY
+echo done
