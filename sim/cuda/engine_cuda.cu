@@ -610,9 +610,10 @@ __global__ void moved_kernel(StepView<Real> v, const Real* x0, const Real* y0, c
   if (i < v.n && displacement2(v, x0, y0, z0, i) > limit2) *moved = 1;
 }
 
-// Virial of each particle, summed per thread block (fixed tree order, so the result is the same
-// every run); the host adds the per-block partials in block order. 18 doubles per block instead
-// of per particle keeps the stress observable within the memory budget.
+// Virial of each particle and, for the thermal ones, its kinetic stress, summed per thread block
+// (fixed tree order, so the result is the same every run); the host adds the per-block partials in
+// block order. 24 doubles per block instead of per particle keeps the stress observable within the
+// memory budget.
 constexpr int kVirialSumsPerBlock = 24;  // VirialSums: conservative, dissipative, random, kinetic
 template <class Real, class C, class T, class W>
 __global__ void virial_kernel(StepView<Real> v, VirialRegion<Real> region, double* block_sums) {
