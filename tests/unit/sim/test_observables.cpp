@@ -83,13 +83,19 @@ TEST_P(Binning, SumsMatchBruteForceOnGridsAndProfiles) {
   ms::BinGrid part = grid;    // a sub-region: particles outside are not counted
   part.lo = {0, 1, 2};
   part.hi = {4, 5, 6};
-  for (const ms::BinGrid& g : {grid, profile, part}) {
+  ms::BinGrid one = part;  // one bin (a region's sums, the sweep's flux): summed per block
+  one.cells = {1, 1, 1};
+  one.type_mask = 0b001;
+  ms::BinGrid whole = grid;
+  whole.cells = {1, 1, 1};
+  for (const ms::BinGrid& g : {grid, profile, part, one, whole}) {
     const auto got = sim->bin_sums(g);
     const auto want = brute_bins(now, g);
     ASSERT_EQ(got.size(), want.size());
     for (size_t k = 0; k < got.size(); ++k)
       EXPECT_NEAR(got[k], want[k], 1e-9 * (1 + std::abs(want[k])));
   }
+  EXPECT_EQ(sim->bin_sums(whole), sim->bin_sums(whole)) << "one bin: the same bits every time";
   double counted = 0;
   const auto all = sim->bin_sums(grid);
   for (size_t b = 0; b < grid.count(); ++b) counted += all[b * ms::kBinFields];
