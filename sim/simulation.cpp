@@ -410,9 +410,6 @@ class SimulationImpl final : public Simulation {
 
  private:
   Communicator& comm() const { return domain_->comm(); }
-  auto owned() const {
-    return [&s = solver_.host](int i) { return s.origin[i] >= 0; };
-  }
   // Every rank's records, on every rank (one rank: its own, not copied).
   template <class Rec>
   std::vector<Rec> all_ranks(std::vector<Rec>&& mine) const {
