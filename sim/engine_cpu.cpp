@@ -161,19 +161,6 @@ class CpuEngine final : public Engine<Real>,
     return total;
   }
 
-  // Serial, as bin_sums: the same sums whatever the thread count.
-  MobileSums mobile_sums() override {
-    const StepView<Real> v = s_->view();
-    MobileSums m;
-    for (int i = 0; i < v.n; ++i) {
-      if (!thermal(v, i)) continue;
-      const double u[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
-      m.v2 += u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-      m.count += 1;
-      for (int a = 0; a < 3; ++a) m.p[static_cast<size_t>(a)] += u[a];
-    }
-    return m;
-  }
   std::vector<RigidSlabBody> slab_bodies(std::vector<double>& coordinate_sums) override {
     const StepView<Real> v = s_->view();
     coordinate_sums.assign(s_->slab_bodies.size(), 0.0);

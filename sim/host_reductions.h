@@ -1,6 +1,6 @@
 #pragma once
 // Host-side helpers of the Simulation observables (sim/simulation.cpp). The sums themselves are
-// the engines' (Engine::mobile_sums, solid_intrusion, virial, bin_sums: on the GPU where the
+// the engines' (Engine::solid_intrusion, slab_bodies, virial, bin_sums: on the GPU where the
 // particles are); each rank sums its own particles and the Domain's communicator sums the ranks.
 // Internal to sim/.
 

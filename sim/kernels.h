@@ -1012,9 +1012,10 @@ MESO_HD MESO_INLINE int bin_of_particle(const StepView<Real>& v, const BinView<R
 }
 
 // ---------------------------------------------------------------------------------------------
-// A thermo row's terms per particle (Engine::mobile_sums, solid_intrusion and the kinetic part of
-// virial), summed where the particles are: a row then moves a few numbers per thread block off
-// the GPU, not the whole state. Counted: the particles that move and this rank owns.
+// A thermo row's terms per particle (Engine::solid_intrusion and the kinetic part of virial;
+// temperature and momentum are a one-bin bin_sums), summed where the particles are: a row then
+// moves a few numbers per thread block off the GPU, not the whole state. Counted: the particles
+// that move and this rank owns.
 template <class Real>
 MESO_HD MESO_INLINE bool thermal(const StepView<Real>& v, int i) {
   return !(((v.frozen_mask | v.slabs.mask) >> v.type[i]) & 1u) && !v.ghost(i);

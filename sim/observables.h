@@ -12,13 +12,6 @@
 
 namespace mesorock::sim {
 
-// The sums of a thermo row over the particles that move and a rank owns (frozen types, rigid
-// slabs and ghosts skipped: their velocities are not thermal): sum v^2, their number, sum v.
-struct MobileSums {
-  double v2 = 0, count = 0;
-  std::array<double, 3> p{0, 0, 0};
-};
-
 // The leak invariant of a run with a solid grid (sim/solid_grid.h): the mobile particles inside
 // solid voxels, and the deepest of them.
 struct SolidIntrusion {

@@ -353,15 +353,13 @@ class SimulationImpl final : public Simulation {
   }
   std::vector<RigidSlabState> rigid_slabs() override;
   double kinetic_temperature() override {
-    const MobileSums m = solver_.engine->mobile_sums();
-    double s[2] = {m.v2, m.count};
-    comm().sum(s, 2);
-    return s[1] > 0 ? s[0] / (3.0 * s[1]) : 0.0;
+    const std::vector<double> s = mobile_bin();
+    const double count = s[kBinCount];
+    return count > 0 ? (s[kBinVxx] + s[kBinVyy] + s[kBinVzz]) / (3.0 * count) : 0.0;
   }
   std::array<double, 3> momentum() override {
-    std::array<double, 3> p = solver_.engine->mobile_sums().p;
-    comm().sum(p.data(), 3);
-    return p;
+    const std::vector<double> s = mobile_bin();
+    return {s[kBinVx], s[kBinVy], s[kBinVz]};
   }
   SolidIntrusion solid_intrusion() override;
   StressSample stress() override { return stress_of(VirialRegion<Real>{}, box_.volume()); }
@@ -410,6 +408,17 @@ class SimulationImpl final : public Simulation {
 
  private:
   Communicator& comm() const { return domain_->comm(); }
+  // The thermo row's temperature and momentum: one bin over the box (a margin of 1 rc) counting
+  // the mobile types (frozen walls and rigid slabs do not move thermally), summed over the ranks.
+  std::vector<double> mobile_bin() {
+    BinGrid whole;
+    for (int a = 0; a < 3; ++a) {
+      whole.lo[static_cast<size_t>(a)] = box_.lo[static_cast<size_t>(a)] - 1;
+      whole.hi[static_cast<size_t>(a)] = box_.hi[static_cast<size_t>(a)] + 1;
+    }
+    whole.type_mask = model_.mobile_mask();
+    return bin_sums(whole);
+  }
   // Every rank's records, on every rank (one rank: its own, not copied).
   template <class Rec>
   std::vector<Rec> all_ranks(std::vector<Rec>&& mine) const {

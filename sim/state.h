@@ -159,9 +159,8 @@ class Engine {
   // used (the pair RNG is keyed by step, so nothing needs storing).
   // `region` restricts the sum to the particles of some types inside a box (region pressure).
   virtual VirialSums virial(const VirialRegion<Real>& region = {}) = 0;
-  // A thermo row's sums over this rank's mobile particles (kernels.h thermal), where they are.
-  virtual MobileSums mobile_sums() = 0;
-  // The leak invariant over the same particles (not available without a solid grid).
+  // The leak invariant over this rank's mobile particles (kernels.h thermal), where they are (not
+  // available without a solid grid).
   virtual SolidIntrusion solid_intrusion() = 0;
   // The rigid slabs' bodies, and per slab the sum of this rank's slab particles' coordinates
   // along its axis (kernels.h slab_coordinate_of).

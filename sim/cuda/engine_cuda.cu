@@ -641,28 +641,6 @@ __global__ void virial_kernel(StepView<Real> v, VirialRegion<Real> region, doubl
     }
 }
 
-// A thermo row's mobile sums (Engine::mobile_sums: sum v^2, count, sum v) per thread block, in a
-// fixed tree order; the host adds the blocks in block order.
-constexpr int kMobileSumsPerBlock = 5;
-template <class Real>
-__global__ void mobile_sums_kernel(StepView<Real> v, double* block_sums) {
-  using BlockReduce = cub::BlockReduce<double, kBlock>;
-  __shared__ typename BlockReduce::TempStorage temp;
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  double s[kMobileSumsPerBlock] = {0, 0, 0, 0, 0};
-  if (i < v.n && thermal(v, i)) {
-    const double u[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
-    s[0] = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-    s[1] = 1;
-    s[2] = u[0], s[3] = u[1], s[4] = u[2];
-  }
-  for (int c = 0; c < kMobileSumsPerBlock; ++c) {
-    const double total = BlockReduce(temp).Sum(s[c]);
-    if (threadIdx.x == 0) block_sums[kMobileSumsPerBlock * blockIdx.x + c] = total;
-    __syncthreads();
-  }
-}
-
 // The leak invariant per thread block: a tree in shared memory (raw storage: a __shared__ array
 // of a type with member initialisers is not allowed), merged by the host in block order.
 template <class Real>
@@ -1070,18 +1048,6 @@ class CudaEngine final : public Engine<Real>,
       s.kinetic[c] = t[18 + c];
     }
     return s;
-  }
-
-  MobileSums mobile_sums() override {
-    const int g = blocks_for(n_);
-    const std::vector<double> t =
-        summed_blocks(thermo_, kMobileSumsPerBlock, g, "mobile sums kernel",
-                      [&](double* out) { mobile_sums_kernel<Real><<<g, kBlock>>>(view(), out); });
-    MobileSums m;
-    m.v2 = t[0];
-    m.count = t[1];
-    for (int a = 0; a < 3; ++a) m.p[static_cast<size_t>(a)] = t[2 + a];
-    return m;
   }
 
   std::vector<RigidSlabBody> slab_bodies(std::vector<double>& coordinate_sums) override {
@@ -1636,8 +1602,7 @@ class CudaEngine final : public Engine<Real>,
       b += a->size() * sizeof(int);
     b += sort_temp_.size() + solid_.size() + left_to_grid_.size() + left_to_grid_alt_.size() +
          table_.size() * sizeof(PairParams<Real>) +
-         (virial_.size() + bins_.size() + one_bin_.size() + thermo_.size() +
-          slab_coordinates_.size()) *
+         (virial_.size() + bins_.size() + one_bin_.size() + slab_coordinates_.size()) *
              sizeof(double) +
          intrusion_.size() * sizeof(SolidIntrusionSums);
     return b;
@@ -1837,7 +1802,7 @@ class CudaEngine final : public Engine<Real>,
   DeviceBuffer<PairParams<Real>> table_;
   DeviceBuffer<Real> body_force_;
   // Observables' buffers, allocated on first use.
-  DeviceBuffer<double> virial_, bins_, one_bin_, thermo_, slab_coordinates_;
+  DeviceBuffer<double> virial_, bins_, one_bin_, slab_coordinates_;
   DeviceBuffer<SolidIntrusionSums> intrusion_;
   DeviceBuffer<Real> bvf_, kappa_;    // wall model only
   DeviceBuffer<std::uint8_t> solid_;  // the solid grid's voxels (scenes with one only)
