@@ -187,12 +187,9 @@ class CpuEngine final : public Engine<Real>,
       const int bin = bin_of_particle(v, b, i);
       if (bin < 0) continue;
       double* s = sums.data() + static_cast<size_t>(kBinFields) * bin;
-      const double vel[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
-      s[kBinCount] += 1.0;
-      for (int a = 0; a < 3; ++a) {
-        s[kBinVx + a] += vel[a];
-        s[kBinVxx + a] += vel[a] * vel[a];
-      }
+      double t[kBinFields];
+      bin_terms(v, i, t);
+      for (int c = 0; c < kBinFields; ++c) s[c] += t[c];
     }
   }
 

@@ -1011,6 +1011,17 @@ MESO_HD MESO_INLINE int bin_of_particle(const StepView<Real>& v, const BinView<R
   return b.bin_of(v.x[i], v.y[i], v.z[i]);
 }
 
+// What particle i adds to its bin: 1, v and v*v per component (BinField order).
+template <class Real>
+MESO_HD MESO_INLINE void bin_terms(const StepView<Real>& v, int i, double t[kBinFields]) {
+  const double vel[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
+  t[kBinCount] = 1;
+  for (int a = 0; a < 3; ++a) {
+    t[kBinVx + a] = vel[a];
+    t[kBinVxx + a] = vel[a] * vel[a];
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // A thermo row's terms per particle (Engine::solid_intrusion and the kinetic part of virial;
 // temperature and momentum are a one-bin bin_sums), summed where the particles are: a row then

@@ -706,12 +706,9 @@ __global__ void bin_kernel(StepView<Real> v, BinView<Real> b, double* sums) {
   const int bin = bin_of_particle(v, b, i);
   if (bin < 0) return;
   double* s = sums + static_cast<size_t>(kBinFields) * bin;
-  const double vel[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
-  atomicAdd(s + kBinCount, 1.0);
-  for (int a = 0; a < 3; ++a) {
-    atomicAdd(s + kBinVx + a, vel[a]);
-    atomicAdd(s + kBinVxx + a, vel[a] * vel[a]);
-  }
+  double t[kBinFields];
+  bin_terms(v, i, t);
+  for (int c = 0; c < kBinFields; ++c) atomicAdd(s + c, t[c]);
 }
 
 // A grid of one bin (a region's sums, the sweep's flux): every counted particle would add to the
@@ -723,14 +720,7 @@ __global__ void one_bin_kernel(StepView<Real> v, BinView<Real> b, double* block_
   __shared__ typename BlockReduce::TempStorage temp;
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   double s[kBinFields] = {0, 0, 0, 0, 0, 0, 0};
-  if (i < v.n && bin_of_particle(v, b, i) == 0) {
-    s[kBinCount] = 1;
-    const double vel[3] = {double(v.vx[i]), double(v.vy[i]), double(v.vz[i])};
-    for (int a = 0; a < 3; ++a) {
-      s[kBinVx + a] = vel[a];
-      s[kBinVxx + a] = vel[a] * vel[a];
-    }
-  }
+  if (i < v.n && bin_of_particle(v, b, i) == 0) bin_terms(v, i, s);
   for (int c = 0; c < kBinFields; ++c) {
     const double total = BlockReduce(temp).Sum(s[c]);
     if (threadIdx.x == 0) block_sums[kBinFields * blockIdx.x + c] = total;
