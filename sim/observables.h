@@ -13,7 +13,8 @@
 namespace mesorock::sim {
 
 // The leak invariant of a run with a solid grid (sim/solid_grid.h): the mobile particles inside
-// solid voxels, and the deepest of them.
+// solid voxels, i.e. past the no-slip surface into a grain (rigid slabs are not counted), and the
+// deepest of them.
 struct SolidIntrusion {
   bool available = false;    // false: the run has no solid grid
   std::uint64_t inside = 0;  // mobile particles inside a solid voxel

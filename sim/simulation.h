@@ -107,9 +107,6 @@ struct RigidSlabState {
   double position = 0, velocity = 0, force = 0, applied_force = 0, mass = 0;
 };
 
-// SolidIntrusion (sim/observables.h): the leak invariant, the mobile particles inside the solid
-// grid's solid voxels, i.e. past the no-slip surface into a grain. Rigid slabs are not counted.
-
 // The particles a region's stress covers: the given types inside the box [lo, hi).
 struct RegionSelection {
   std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};

@@ -168,7 +168,6 @@ std::uint64_t Runner::next_chunk(const StageSpec& stage, std::uint64_t done, boo
 }
 
 void Runner::after_chunk(const RunPoint& at) {
-  output_seconds_.resize(outputs_.size(), 0.0);
   for (size_t k = 0; k < outputs_.size(); ++k) {
     const auto t = Clock::now();
     outputs_[k]->sample(at);

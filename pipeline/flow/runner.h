@@ -104,7 +104,10 @@ class Runner {
   Runner(const Scene& scene, sim::Simulation& sim, const RunOptions& options,
          const ResumePoint* resume, std::chrono::steady_clock::time_point started);
   RunContext& context() { return context_; }
-  void add(std::unique_ptr<RunOutput> output) { outputs_.push_back(std::move(output)); }
+  void add(std::unique_ptr<RunOutput> output) {
+    outputs_.push_back(std::move(output));
+    output_seconds_.push_back(0);
+  }
 
   void run();
   // Writes the outputs' end-of-run files and summary.json, and commits them together.
