@@ -22,23 +22,29 @@ namespace {
 template <class Real>
 class CellSorter {
  public:
+  // Sorts the first `count` stored particles by key and leaves the rest where they are: the key
+  // is the cell, plus `frozen_offset` for a frozen particle when that is not 0 (the frozen part,
+  // StepView::frozen_part). cell_start[0..keys] is rewritten; a full sort (count = all) sizes it
+  // to keys + 1, a sort of the mobile part keeps the frozen part's entries behind it.
   // carry_forces: forces, densities and phi move with their particles too (a restored state; a
   // step's sort comes before its force pass, which writes them anew).
-  void sort(HostState<Real>& s, bool carry_forces = false) {
-    const int ncells = s.grid.count();
-    const int n = s.size();
-    s.cell_start.assign(static_cast<size_t>(ncells) + 1, 0);
-    cell_of_.resize(static_cast<size_t>(n));
-    dest_.resize(static_cast<size_t>(n));
+  void sort(HostState<Real>& s, int count, int keys, int frozen_offset, bool carry_forces) {
+    const bool all = count == s.size();
+    if (all)
+      s.cell_start.assign(static_cast<size_t>(keys) + 1, 0);
+    else
+      std::fill(s.cell_start.begin(), s.cell_start.begin() + keys + 1, 0);
+    cell_of_.resize(static_cast<size_t>(count));
+    dest_.resize(static_cast<size_t>(count));
     const StepView<Real> v = s.view();
-    for (int i = 0; i < n; ++i) {
-      const int c = cell_of(v, i);
+    for (int i = 0; i < count; ++i) {
+      const int c = cell_of(v, i) + (frozen_offset > 0 && v.frozen(i) ? frozen_offset : 0);
       cell_of_[static_cast<size_t>(i)] = c;
       ++s.cell_start[static_cast<size_t>(c) + 1];
     }
-    for (int c = 0; c < ncells; ++c) s.cell_start[c + 1] += s.cell_start[c];
-    fill_.assign(s.cell_start.begin(), s.cell_start.end() - 1);
-    for (int i = 0; i < n; ++i) dest_[static_cast<size_t>(i)] = fill_[cell_of_[i]]++;
+    for (int c = 0; c < keys; ++c) s.cell_start[c + 1] += s.cell_start[c];
+    fill_.assign(s.cell_start.begin(), s.cell_start.begin() + keys);
+    for (int i = 0; i < count; ++i) dest_[static_cast<size_t>(i)] = fill_[cell_of_[i]]++;
     // v~ is empty without a thermostat: permuting it is then a no-op.
     for (auto* a : {&s.x, &s.y, &s.z, &s.vx, &s.vy, &s.vz, &s.vex, &s.vey, &s.vez})
       permute(*a, scratch_real_);
@@ -51,12 +57,16 @@ class CellSorter {
   }
 
  private:
+  // a[dest[i]] = a[i] for the sorted particles (an empty array stays empty).
   template <class T>
   void permute(std::vector<T>& a, std::vector<T>& scratch) {
-    scratch.resize(a.size());
-    const size_t n = a.size();
-    for (size_t i = 0; i < n; ++i) scratch[static_cast<size_t>(dest_[i])] = a[i];
-    a.swap(scratch);
+    const size_t count = std::min(dest_.size(), a.size());
+    scratch.resize(count);
+    for (size_t i = 0; i < count; ++i) scratch[static_cast<size_t>(dest_[i])] = a[i];
+    if (count == a.size())
+      a.swap(scratch);
+    else  // the mobile part: the frozen part behind it stays
+      std::copy(scratch.begin(), scratch.end(), a.begin());
   }
   std::vector<int> cell_of_, dest_, fill_;
   std::vector<Real> scratch_real_;
@@ -70,15 +80,18 @@ class CpuEngine final : public Engine<Real>,
                         public DomainStore<Real>,
                         private Stepper<Real, Terms, CpuEngine<Real, Terms>> {
   using Steps = Stepper<Real, Terms, CpuEngine<Real, Terms>>;
+  using C = typename Terms::conservative;
+  using W = typename Terms::wall_model;
   friend Steps;
 
  public:
-  explicit CpuEngine(int threads) : threads_(threads) {}
+  CpuEngine(int threads, bool frozen_part) : threads_(threads), frozen_part_option_(frozen_part) {}
 
   const char* name() const override { return "cpu"; }
 
   void initialize(HostState<Real>& host, StepHooks<Real>& hooks) override {
     s_ = &host;
+    frozen_sums_valid_ = false;  // a new state: the first sort is full
     this->attach_hooks(hooks);
     ThreadScope scope(threads_);
     this->initial_forces();
@@ -87,6 +100,7 @@ class CpuEngine final : public Engine<Real>,
   void restore(HostState<Real>& host, std::uint64_t wall_corrections,
                StepHooks<Real>& hooks) override {
     s_ = &host;
+    frozen_sums_valid_ = false;  // a new state: the first sort is full
     this->attach_hooks(hooks);
     corrected_ = wall_corrections;
     ThreadScope scope(threads_);
@@ -102,7 +116,7 @@ class CpuEngine final : public Engine<Real>,
 
   void neighbour_counts(std::vector<int>& counts) override {
     ThreadScope scope(threads_);
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     counts.assign(static_cast<size_t>(v.n), 0);
     const int n = v.n;
 #pragma omp parallel for schedule(static)
@@ -128,7 +142,7 @@ class CpuEngine final : public Engine<Real>,
   // added under `omp critical` made stress and pressure depend on the scheduling at round-off.)
   VirialSums virial(const VirialRegion<Real>& region) override {
     ThreadScope scope(threads_);
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     const int n = v.n;
     constexpr int kBlock = 256;  // particles per block: a few kB of sums for 1 M particles
     const int blocks = (n + kBlock - 1) / kBlock;
@@ -162,7 +176,7 @@ class CpuEngine final : public Engine<Real>,
   }
 
   std::vector<RigidSlabBody> slab_bodies(std::vector<double>& coordinate_sums) override {
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     coordinate_sums.assign(s_->slab_bodies.size(), 0.0);
     for (int i = 0; i < v.n; ++i)
       for (size_t k = 0; k < coordinate_sums.size(); ++k)
@@ -170,7 +184,7 @@ class CpuEngine final : public Engine<Real>,
     return s_->slab_bodies;
   }
   SolidIntrusion solid_intrusion() override {
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     if (!v.solid.enabled()) return {};
     SolidIntrusionSums sums;
     for (int i = 0; i < v.n; ++i) sums.merge(solid_intrusion_of_particle(v, i));
@@ -180,7 +194,7 @@ class CpuEngine final : public Engine<Real>,
   // Serial on purpose: the sums then come out the same whatever the thread count, and binning is
   // O(N) against the force pass's O(N x neighbours).
   void bin_sums(const BinGrid& grid, std::vector<double>& sums) override {
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     const BinView<Real> b = BinView<Real>::make(grid);
     sums.assign(grid.count() * kBinFields, 0.0);
     for (int i = 0; i < v.n; ++i) {
@@ -207,8 +221,15 @@ class CpuEngine final : public Engine<Real>,
   HostState<Real>& host_state() {
     return *s_;
   }
+  // The host state's view, with the frozen part where the storage has one.
   StepView<Real> view() const {
-    return s_->view();
+    StepView<Real> v = s_->view();
+    v.frozen_part = frozen_part_;
+    if (frozen_sums_valid_) {
+      v.frozen_rho = frozen_rho_.empty() ? nullptr : frozen_rho_.data();
+      v.frozen_bvf = frozen_bvf_.empty() ? nullptr : frozen_bvf_.data();
+    }
+    return v;
   }
   void next_step() {
     ++s_->step;
@@ -268,10 +289,48 @@ class CpuEngine final : public Engine<Real>,
   }
 
   // The sort, and the half list of that sort: pairs within rc + skin (the skin of a reorder
-  // interval; 0 when every step sorts).
+  // interval; 0 when every step sorts). With a frozen part whose static sums hold, only the
+  // mobile part is sorted (a stable sort would leave the frozen part as it is), and the half
+  // list holds the pairs of the mobile particles only: a pair of two frozen particles is in
+  // their static sums.
   void sort_by_cell(bool carry_forces) {
-    sorter_.sort(*s_, carry_forces);
-    list_.build(s_->view(), Real(1) + s_->skin);
+    const int ncells = s_->grid.count();
+    const int n = s_->size();
+    if (!split_frozen()) {
+      frozen_part_ = 0;
+      sorter_.sort(*s_, n, ncells, 0, carry_forces);
+    } else if (frozen_sums_valid_ && frozen_part_ == ncells) {
+      sorter_.sort(*s_, s_->cell_start[static_cast<size_t>(ncells)], ncells, 0, carry_forces);
+    } else {
+      frozen_part_ = ncells;
+      frozen_sums_valid_ = false;
+      sorter_.sort(*s_, n, 2 * ncells, ncells, carry_forces);
+      update_frozen_sums();
+    }
+    list_.build(view(), Real(1) + s_->skin);
+  }
+  // Frozen particles in a part of their own, as on the GPU (StepView::frozen_part), when the
+  // scene has frozen types and the run is on one rank (a decomposition moves particles between
+  // ranks and refreshes its ghosts every step, which would void the static sums each time).
+  bool split_frozen() const {
+    return frozen_part_option_ && s_->frozen_mask != 0 && !this->hooks().distributed();
+  }
+  // After a full sort with a frozen part: each frozen particle's sums over its frozen neighbours
+  // (StepView::frozen_rho), kept until the frozen particles may change (a new state, an
+  // injection).
+  void update_frozen_sums() {
+    using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
+    const int start = s_->cell_start[static_cast<size_t>(frozen_part_)];
+    const size_t frozen = static_cast<size_t>(s_->size() - start);
+    frozen_rho_.assign(C::needs_density ? frozen : 0, Real(0));
+    frozen_bvf_.assign(W::enabled ? frozen : 0, Real(0));
+    if constexpr (C::needs_density || W::enabled)
+      for_each(view(), [&](const StepView<Real>& v, int i) {
+        if (i >= start)
+          frozen_sums_of_particle<Real, K, W::enabled>(v, i, frozen_rho_.data(),
+                                                       frozen_bvf_.data());
+      });
+    frozen_sums_valid_ = true;
   }
   bool sort_positions_stale() const {
     return x0_.size() != s_->x.size();
@@ -282,7 +341,7 @@ class CpuEngine final : public Engine<Real>,
     z0_ = s_->z;
   }
   bool any_moved_beyond(Real limit2) {
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     const int n = v.n;
     int moved = 0;
 #pragma omp parallel for schedule(static) reduction(max : moved)
@@ -302,7 +361,7 @@ class CpuEngine final : public Engine<Real>,
   // Sum over slab k's particles of their force along its axis; a serial loop in storage order, so
   // the result does not depend on the thread count.
   double slab_pair_force(int k) const {
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     double sum = 0;
     for (int i = 0; i < v.n; ++i) sum += slab_force_of(v, i, k);
     return sum;
@@ -328,7 +387,7 @@ class CpuEngine final : public Engine<Real>,
   // O(N) scan per pick, independent of the thread count; the GPU takes the same particle.
   void inject() {
     if (counts_.size() != s_->injections.size()) counts_.resize(s_->injections.size());
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     for (size_t k = 0; k < s_->injections.size(); ++k) {
       const InjectionPlan<Real>& plan = s_->injections[k];
       if (!plan.due(v.step)) continue;
@@ -345,16 +404,17 @@ class CpuEngine final : public Engine<Real>,
           if (injection_key_of(v, plan.view, i, pick) == best) {
             inject_particle(v, plan.view, i, pick);
             ++counts_[k].injected;
+            frozen_sums_valid_ = false;  // a pick may change a type: the next sort is full
           }
       }
     }
   }
 
   void watchdog_step() {
-    if (this->watchdog_.enabled) watchdog_scan(s_->view(), this->watchdog_);  // throws
+    if (this->watchdog_.enabled) watchdog_scan(view(), this->watchdog_);  // throws
   }
   void kick_and_watchdog() {
-    for_each(s_->view(), KickPass<Real>{});
+    for_each(view(), KickPass<Real>{});
     watchdog_step();
   }
   void finish_steps(std::uint64_t) {}
@@ -527,7 +587,7 @@ class CpuEngine final : public Engine<Real>,
 
   // Finds every penetrating particle against the same positions, then applies the corrections.
   int correct_penetrations() {
-    const StepView<Real> v = s_->view();
+    const StepView<Real> v = view();
     const int n = v.n;
     corrections_.clear();
 #pragma omp parallel
@@ -570,6 +630,12 @@ class CpuEngine final : public Engine<Real>,
   std::vector<HaloBox<Real>> send_boxes_;
   std::uint64_t corrected_ = 0;
   int threads_;
+  // The frozen part (split_frozen): its cell count offset in cell_start (0: no frozen part), its
+  // static sums and whether they hold. frozen_part_option_: SimulationOptions::frozen_part.
+  bool frozen_part_option_ = true;
+  int frozen_part_ = 0;
+  bool frozen_sums_valid_ = false;
+  std::vector<Real> frozen_rho_, frozen_bvf_;
   HostState<Real>* s_ = nullptr;
   CellSorter<Real> sorter_;
   HalfList<Real> list_;
@@ -578,15 +644,15 @@ class CpuEngine final : public Engine<Real>,
 }  // namespace
 
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cpu_engine(const Model& model, int threads) {
+std::unique_ptr<Engine<Real>> make_cpu_engine(const Model& model, int threads, bool frozen_part) {
   std::unique_ptr<Engine<Real>> engine;
   dispatch_terms(model, [&](auto terms) {
-    engine = std::make_unique<CpuEngine<Real, decltype(terms)>>(threads);
+    engine = std::make_unique<CpuEngine<Real, decltype(terms)>>(threads, frozen_part);
   });
   return engine;
 }
 
-template std::unique_ptr<Engine<float>> make_cpu_engine<float>(const Model&, int);
-template std::unique_ptr<Engine<double>> make_cpu_engine<double>(const Model&, int);
+template std::unique_ptr<Engine<float>> make_cpu_engine<float>(const Model&, int, bool);
+template std::unique_ptr<Engine<double>> make_cpu_engine<double>(const Model&, int, bool);
 
 }  // namespace mesorock::sim

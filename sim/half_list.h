@@ -15,7 +15,9 @@
 // images when used, so with a cutoff of rc + skin it stays valid while no particle has moved more
 // than skin / 2 (the stepper's re-sort rule). Pairs of two frozen particles go last in each list
 // (the density pass needs them, the force pass stops before them); pairs of two ghosts are left
-// out.
+// out. With a frozen part (StepView::frozen_part: the CPU engine on one rank) the blocks hold the
+// mobile particles only, so no list holds a pair of two frozen particles: their terms are in the
+// frozen particles' static sums (begin_sums in sim/kernels.h).
 #include <omp.h>
 
 #include <array>

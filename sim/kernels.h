@@ -600,7 +600,16 @@ MESO_HD MESO_INLINE Real separation2(const StepView<Real>& v, int i, int j, Real
 // rho (when DensityKernel is not void) and the wall sum of phi, before the pairs.
 template <class Real, class DensityKernel, bool kWalls>
 MESO_HD MESO_INLINE void begin_sums(const StepView<Real>& v, int i) {
-  if constexpr (!std::is_void<DensityKernel>::value) v.rho[i] = Real(0);
+  constexpr bool kDensity = !std::is_void<DensityKernel>::value;
+  // A frozen particle's sums over its frozen neighbours, where they are kept (StepView::frozen_rho;
+  // its half list then holds no pair of two frozen particles).
+  if ((kWalls ? v.frozen_bvf : v.frozen_rho) != nullptr && v.frozen(i)) {
+    const int k = v.frozen_index(i);
+    if constexpr (kDensity) v.rho[i] = v.frozen_rho[k];
+    if constexpr (kWalls) v.bvf[i] = v.frozen_bvf[k];
+    return;
+  }
+  if constexpr (kDensity) v.rho[i] = Real(0);
   if constexpr (kWalls) v.bvf[i] = Real(0);
 }
 

@@ -203,7 +203,8 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
 
 template <class Real>
 std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& opt) {
-  if (opt.backend == BackendKind::CPU) return make_cpu_engine<Real>(model, opt.threads);
+  if (opt.backend == BackendKind::CPU)
+    return make_cpu_engine<Real>(model, opt.threads, opt.frozen_part);
 #if defined(MESOROCK_HAVE_CUDA)
   return make_cuda_engine<Real>(model, CudaEngineOptions{opt.device, opt.profile, opt.frozen_part,
                                                          opt.graphs, opt.lanes_per_particle});

@@ -32,9 +32,9 @@ struct SimulationOptions {
   int threads = 0;       // CPU backend: OpenMP threads; <= 0 means OpenMP's default
   int device = 0;        // CUDA backend: device ordinal
   bool profile = false;  // CUDA backend: time each pass with events (synchronises every step)
-  // CUDA backend: frozen particles stored apart from the mobile ones, sorted once, their sums
-  // over frozen neighbours kept (ARCHITECTURE.md). Off only to measure what that saves (`rockflow
-  // bench --frozen-part off`); the physics is the same, the order of sums differs.
+  // Frozen particles stored apart from the mobile ones, sorted once, their sums over frozen
+  // neighbours kept (ARCHITECTURE.md; the CPU in a run on one rank). Off only to measure what that
+  // saves (`rockflow bench --frozen-part off`); the physics is the same, the order of sums differs.
   bool frozen_part = true;
   // CUDA backend: runs of steps captured once as a CUDA graph and replayed (ARCHITECTURE.md), so
   // a small system is not bound by kernel launches. Every bit of the result is the same; off only

@@ -59,8 +59,9 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
   bench->add_flag("--decompose", a->decompose,
                   "run the decomposed (MPI) solver even on one rank, to measure its cost");
   add_measuring_switch(bench, "--frozen-part", a->frozen_part,
-                       "CUDA: store frozen particles apart, sorted once (on), or mixed with the "
-                       "mobile ones (off: only to measure what it saves)");
+                       "store frozen particles apart, sorted once, with their sums over frozen "
+                       "neighbours kept (on), or mixed with the mobile ones (off: only to measure "
+                       "what it saves)");
   add_measuring_switch(bench, "--graphs", a->graphs,
                        "CUDA: replay runs of steps captured as CUDA graphs (on) or launch every "
                        "kernel (off: only to measure what graphs save; the results are the same)");
