@@ -28,7 +28,10 @@ class CellSorter {
   // to keys + 1, a sort of the mobile part keeps the frozen part's entries behind it.
   // carry_forces: forces, densities and phi move with their particles too (a restored state; a
   // step's sort comes before its force pass, which writes them anew).
-  void sort(HostState<Real>& s, int count, int keys, int frozen_offset, bool carry_forces) {
+  // With `buried` (one flag per particle), a flagged frozen particle's key is the cell plus twice
+  // frozen_offset (StepView::buried_part).
+  void sort(HostState<Real>& s, int count, int keys, int frozen_offset, bool carry_forces,
+            const std::vector<std::uint8_t>* buried = nullptr) {
     const bool all = count == s.size();
     if (all)
       s.cell_start.assign(static_cast<size_t>(keys) + 1, 0);
@@ -38,7 +41,10 @@ class CellSorter {
     dest_.resize(static_cast<size_t>(count));
     const StepView<Real> v = s.view();
     for (int i = 0; i < count; ++i) {
-      const int c = cell_of(v, i) + (frozen_offset > 0 && v.frozen(i) ? frozen_offset : 0);
+      const int part = frozen_offset > 0 && v.frozen(i)
+                           ? (buried && (*buried)[static_cast<size_t>(i)] ? 2 : 1)
+                           : 0;
+      const int c = cell_of(v, i) + part * frozen_offset;
       cell_of_[static_cast<size_t>(i)] = c;
       ++s.cell_start[static_cast<size_t>(c) + 1];
     }
@@ -85,7 +91,8 @@ class CpuEngine final : public Engine<Real>,
   friend Steps;
 
  public:
-  CpuEngine(int threads, bool frozen_part) : threads_(threads), frozen_part_option_(frozen_part) {}
+  explicit CpuEngine(const CpuEngineOptions& o)
+      : threads_(o.threads), frozen_part_option_(o.frozen_part), burying_(o.buried_part) {}
 
   const char* name() const override { return "cpu"; }
 
@@ -133,6 +140,11 @@ class CpuEngine final : public Engine<Real>,
     s_->dt = dt;
   }
   void download(HostState<Real>&) override {}
+  std::uint64_t buried_particles() const override {
+    if (!buried_part_) return 0;
+    const size_t n = s_->cell_start.size();
+    return static_cast<std::uint64_t>(s_->cell_start[n - 1] - s_->cell_start[n - 1 - frozen_part_]);
+  }
   std::uint64_t step() const override {
     return s_->step;
   }
@@ -225,6 +237,7 @@ class CpuEngine final : public Engine<Real>,
   StepView<Real> view() const {
     StepView<Real> v = s_->view();
     v.frozen_part = frozen_part_;
+    v.buried_part = buried_part_;
     if (frozen_sums_valid_) {
       v.frozen_rho = frozen_rho_.empty() ? nullptr : frozen_rho_.data();
       v.frozen_bvf = frozen_bvf_.empty() ? nullptr : frozen_bvf_.data();
@@ -304,7 +317,11 @@ class CpuEngine final : public Engine<Real>,
     } else {
       frozen_part_ = ncells;
       frozen_sums_valid_ = false;
-      sorter_.sort(*s_, n, 2 * ncells, ncells, carry_forces);
+      buried_part_ = false;
+      const bool bury = find_buried();
+      sorter_.sort(*s_, n, (bury ? 3 : 2) * ncells, ncells, carry_forces,
+                   bury ? &buried_ : nullptr);
+      buried_part_ = bury;
       update_frozen_sums();
     }
     list_.build(view(), Real(1) + s_->skin);
@@ -315,6 +332,28 @@ class CpuEngine final : public Engine<Real>,
   bool split_frozen() const {
     return frozen_part_option_ && s_->frozen_mask != 0 && !this->hooks().distributed();
   }
+  // Flags the frozen particles no mobile one can come within rc of (StepView::buried_part):
+  // possible with the solid grid's bounce, which keeps every mobile particle that starts a step
+  // in the pore there, when no mobile particle is in the solid now and there are no rigid slabs
+  // (which move without the bounce). Returns whether any is flagged.
+  bool find_buried() {
+    const StepView<Real> v = s_->view();
+    if (!burying_ || !v.solid.enabled() || !v.solid.bounce || v.slabs.count > 0) return false;
+    const int n = v.n;
+    buried_.assign(static_cast<size_t>(n), 0);
+    int flagged = 0, intruders = 0;
+#pragma omp parallel for schedule(static) reduction(+ : flagged, intruders)
+    for (int i = 0; i < n; ++i) {
+      if (!v.frozen(i)) {
+        intruders += v.solid.in_solid(v.x[i], v.y[i], v.z[i]) ? 1 : 0;
+      } else if (buried(v, i)) {
+        buried_[static_cast<size_t>(i)] = 1;
+        ++flagged;
+      }
+    }
+    return intruders == 0 && flagged > 0;
+  }
+
   // After a full sort with a frozen part: each frozen particle's sums over its frozen neighbours
   // (StepView::frozen_rho), kept until the frozen particles may change (a new state, an
   // injection).
@@ -635,6 +674,11 @@ class CpuEngine final : public Engine<Real>,
   bool frozen_part_option_ = true;
   int frozen_part_ = 0;
   bool frozen_sums_valid_ = false;
+  // The buried part (find_buried) and its flags at the last full sort; burying_: on unless
+  // switched off (SimulationOptions::buried_part, to measure what it saves).
+  bool burying_ = true;
+  bool buried_part_ = false;
+  std::vector<std::uint8_t> buried_;
   std::vector<Real> frozen_rho_, frozen_bvf_;
   HostState<Real>* s_ = nullptr;
   CellSorter<Real> sorter_;
@@ -644,15 +688,17 @@ class CpuEngine final : public Engine<Real>,
 }  // namespace
 
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cpu_engine(const Model& model, int threads, bool frozen_part) {
+std::unique_ptr<Engine<Real>> make_cpu_engine(const Model& model, const CpuEngineOptions& options) {
   std::unique_ptr<Engine<Real>> engine;
   dispatch_terms(model, [&](auto terms) {
-    engine = std::make_unique<CpuEngine<Real, decltype(terms)>>(threads, frozen_part);
+    engine = std::make_unique<CpuEngine<Real, decltype(terms)>>(options);
   });
   return engine;
 }
 
-template std::unique_ptr<Engine<float>> make_cpu_engine<float>(const Model&, int, bool);
-template std::unique_ptr<Engine<double>> make_cpu_engine<double>(const Model&, int, bool);
+template std::unique_ptr<Engine<float>> make_cpu_engine<float>(const Model&,
+                                                               const CpuEngineOptions&);
+template std::unique_ptr<Engine<double>> make_cpu_engine<double>(const Model&,
+                                                                 const CpuEngineOptions&);
 
 }  // namespace mesorock::sim

@@ -6,10 +6,14 @@
 
 namespace mesorock::sim {
 
-// The CPU backend: OpenMP loops over the shared kernel bodies. threads <= 0: OpenMP's default.
-// frozen_part: SimulationOptions::frozen_part.
+struct CpuEngineOptions {
+  int threads = 0;          // OpenMP threads; <= 0: OpenMP's default
+  bool frozen_part = true;  // SimulationOptions::frozen_part
+  bool buried_part = true;  // SimulationOptions::buried_part
+};
+
+// The CPU backend: OpenMP loops over the shared kernel bodies.
 template <class Real>
-std::unique_ptr<Engine<Real>> make_cpu_engine(const Model& model, int threads,
-                                              bool frozen_part = true);
+std::unique_ptr<Engine<Real>> make_cpu_engine(const Model& model, const CpuEngineOptions& options);
 
 }  // namespace mesorock::sim

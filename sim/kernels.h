@@ -59,8 +59,15 @@ struct StepView {
   // particles are [cell_start[frozen_part + c], cell_start[frozen_part + c + 1]), frozen_part
   // being the cell count. Why: a warp then holds mobile or frozen particles, not both, so the
   // passes that skip frozen particles skip whole warps.
+  //
+  // With a buried part as well (buried_part): the frozen particles farther than rc from every
+  // pore voxel of the solid grid, which no mobile particle can reach while the grid's bounce
+  // keeps the mobile ones in the pore, stand behind the frozen part in a third part of their own,
+  // cell c's at [cell_start[2 frozen_part + c], cell_start[2 frozen_part + c + 1]). Only the
+  // frozen particles' static sums scan it (Parts::FrozenAndBuried): a step's passes never see it.
   const int* cell_start = nullptr;
   int frozen_part = 0;
+  bool buried_part = false;
   // With a frozen part, the sums of each frozen particle over its frozen neighbours, which hold
   // while the frozen particles stay what they are (the k-th frozen particle's at k; frozen_rho
   // with a density, frozen_bvf with the wall model). A pass then sums only a frozen particle's
@@ -115,9 +122,10 @@ struct StepView {
 // cell (i itself included), in storage order within each row of cells along x. Periodic images
 // come from per-cell shifts (no per-pair branch) except on axes too short for the stencil, where
 // minimum_image decides per pair. Either way dx_ij = -dx_ji exactly.
-// Parts (see StepView::frozen_part): 0 the mobile particles, 1 the frozen ones; by default every
-// part there is.
-enum class Parts : int { All = 0, MobileOnly = 1, FrozenOnly = 2 };
+// Parts (see StepView::frozen_part): 0 the mobile particles, 1 the frozen ones, 2 the buried ones
+// (StepView::buried_part). All: the mobile and frozen parts, every particle a step can meet (with
+// neither part, all particles); FrozenAndBuried: every frozen particle (the static sums).
+enum class Parts : int { All = 0, MobileOnly = 1, FrozenOnly = 2, FrozenAndBuried = 3 };
 
 // The threads that share one particle's scan in the GPU's gather passes (sim/cuda: LaneGroup):
 // lane k of kCount takes the k-th, (k + kCount)-th, ... candidate of each run of cells, the
@@ -160,8 +168,11 @@ MESO_HD MESO_INLINE void for_each_candidate(const StepView<Real>& v, int i, Visi
   const int x_last[3] = {nx, rx.end > nx ? nx : rx.end, rx.end - nx};
   const Real x_shift[3] = {-v.box.length[0], Real(0), v.box.length[0]};
   // Mobile, then frozen (see StepView); without a frozen part, one part of everything.
-  const int first_part = parts == Parts::FrozenOnly && v.frozen_part > 0 ? 1 : 0;
-  const int last_part = v.frozen_part == 0 || parts == Parts::MobileOnly ? 1 : 2;
+  const bool frozen_only = parts == Parts::FrozenOnly || parts == Parts::FrozenAndBuried;
+  const int first_part = frozen_only && v.frozen_part > 0 ? 1 : 0;
+  const int last_part = v.frozen_part == 0 || parts == Parts::MobileOnly
+                            ? 1
+                            : (parts == Parts::FrozenAndBuried && v.buried_part ? 3 : 2);
   for (int kz = rz.begin; kz < rz.end; ++kz) {
     Real sz;
     const int wz = g.wrap(kz, 2, v.box.length[2], sz);
@@ -386,6 +397,13 @@ MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, in
   v.bvf[i] = v.walls.is_wall(v.type[i]) ? Real(0) : wall * v.walls.inv_wall_density;
 }
 
+// Whether particle i belongs in the buried part (StepView::buried_part): frozen, with no pore
+// voxel within rc (and a margin of 1e-3 rc for the rounding at the voxel faces).
+template <class Real>
+MESO_HD MESO_INLINE bool buried(const StepView<Real>& v, int i) {
+  return v.frozen(i) && !v.solid.pore_within(v.x[i], v.y[i], v.z[i], Real(1.001));
+}
+
 // The static sums of frozen particle i over its frozen neighbours (StepView::frozen_rho): rho
 // and the unscaled wall sum, at k = i - the first frozen position.
 template <class Real, class DensityKernel, bool kWalls>
@@ -393,7 +411,7 @@ MESO_HD MESO_INLINE void frozen_sums_of_particle(const StepView<Real>& v, int i,
                                                  Real* wall_out) {
   const int k = v.frozen_index(i);
   Real rho = 0, wall = 0;
-  add_density_and_wall<Real, DensityKernel>(v, i, Parts::FrozenOnly, rho, wall);
+  add_density_and_wall<Real, DensityKernel>(v, i, Parts::FrozenAndBuried, rho, wall);
   if constexpr (kWalls) wall_out[k] = wall;
   if constexpr (!std::is_void<DensityKernel>::value) rho_out[k] = rho;
 }

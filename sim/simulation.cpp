@@ -204,7 +204,8 @@ void init_host_state(HostState<Real>& s, const Model& model, const BoxSpec& box,
 template <class Real>
 std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOptions& opt) {
   if (opt.backend == BackendKind::CPU)
-    return make_cpu_engine<Real>(model, opt.threads, opt.frozen_part);
+    return make_cpu_engine<Real>(model,
+                                 CpuEngineOptions{opt.threads, opt.frozen_part, opt.buried_part});
 #if defined(MESOROCK_HAVE_CUDA)
   return make_cuda_engine<Real>(model, CudaEngineOptions{opt.device, opt.profile, opt.frozen_part,
                                                          opt.graphs, opt.lanes_per_particle});
@@ -393,6 +394,7 @@ class SimulationImpl final : public Simulation {
   std::size_t device_bytes() const override { return solver_.engine->device_bytes(); }
   std::string profile_report() const override { return solver_.engine->profile_report(); }
   std::uint64_t graph_steps() const override { return solver_.engine->graph_steps(); }
+  std::uint64_t buried_particles() const override { return solver_.engine->buried_particles(); }
   int rank() const override { return comm().rank(); }
   int ranks() const override { return comm().size(); }
   std::vector<double> rank_costs() override { return domain_->rank_costs(); }

@@ -36,6 +36,11 @@ struct SimulationOptions {
   // neighbours kept (ARCHITECTURE.md; the CPU in a run on one rank). Off only to measure what that
   // saves (`rockflow bench --frozen-part off`); the physics is the same, the order of sums differs.
   bool frozen_part = true;
+  // With the frozen part and the solid grid's bounce: frozen particles farther than rc from every
+  // pore voxel kept out of every step's passes (StepView::buried_part; the CPU for now). Off only
+  // to measure what that saves (`rockflow bench --buried-part off`); the order of the frozen
+  // particles' static sums differs, nothing else.
+  bool buried_part = true;
   // CUDA backend: runs of steps captured once as a CUDA graph and replayed (ARCHITECTURE.md), so
   // a small system is not bound by kernel launches. Every bit of the result is the same; off only
   // to measure what it saves (`rockflow bench --graphs off`). Runs with a reorder interval,
@@ -161,6 +166,8 @@ class Simulation {
   virtual std::string profile_report() const = 0;
   // Steps run as replays or captures of a CUDA graph (SimulationOptions::graphs; 0 on the CPU).
   virtual std::uint64_t graph_steps() const = 0;
+  // Frozen particles kept out of the steps at the last full sort (SimulationOptions::buried_part).
+  virtual std::uint64_t buried_particles() const = 0;
 
   // A decomposed run: this rank, the ranks, and each rank's cost now (the load-balance measure:
   // sum over its particles of neighbours x (1 for a frozen particle, 4.5 for a mobile one: the

@@ -108,6 +108,17 @@ struct SolidView {
     return solid_at(i, j, k);
   }
 
+  // The squared distance from point p to voxel n (raw indices): 0 inside it.
+  MESO_HD MESO_INLINE Real distance2_to_voxel(const Real p[3], const int n[3]) const {
+    Real d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const Real lo = origin[a] + Real(n[a]) * voxel[a];
+      const Real out = lo - p[a] > p[a] - lo - voxel[a] ? lo - p[a] : p[a] - lo - voxel[a];
+      if (out > Real(0)) d2 += out * out;
+    }
+    return d2;
+  }
+
   // How far the point lies inside the solid: the distance to the nearest pore voxel (0 in the
   // pore), exact up to `reach` voxels around it; a point deeper than the search can see gets
   // the search radius (a lower bound). Cheap in the pore (one byte), a small search only for a
@@ -125,15 +136,29 @@ struct SolidView {
       for (int dj = -reach[1]; dj <= reach[1]; ++dj)
         for (int di = -reach[0]; di <= reach[0]; ++di) {
           const int n[3] = {c[0] + di, c[1] + dj, c[2] + dk};
-          Real d2 = 0;
-          for (int a = 0; a < 3; ++a) {
-            const Real lo = origin[a] + Real(n[a]) * voxel[a];
-            const Real out = lo - p[a] > p[a] - lo - voxel[a] ? lo - p[a] : p[a] - lo - voxel[a];
-            if (out > Real(0)) d2 += out * out;
-          }
+          const Real d2 = distance2_to_voxel(p, n);
           if (d2 < best2 && !solid_at(n[0], n[1], n[2])) best2 = d2;
         }
     return real_sqrt(best2);
+  }
+
+  // Whether some pore voxel (or a point outside a non-periodic grid) lies closer than `distance`
+  // to the point: false means the point is buried deeper than that in the solid. Searches the
+  // voxels the sphere of that radius touches, and stops at the first pore one.
+  MESO_HD bool pore_within(Real x, Real y, Real z, Real distance) const {
+    const Real p[3] = {x, y, z};
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a)
+      if (!raw_index(p[a] - distance, a, lo[a]) || !raw_index(p[a] + distance, a, hi[a]))
+        return true;
+    const Real limit2 = distance * distance;
+    for (int k = lo[2]; k <= hi[2]; ++k)
+      for (int j = lo[1]; j <= hi[1]; ++j)
+        for (int i = lo[0]; i <= hi[0]; ++i) {
+          const int n[3] = {i, j, k};
+          if (distance2_to_voxel(p, n) < limit2 && !solid_at(i, j, k)) return true;
+        }
+    return false;
   }
 };
 

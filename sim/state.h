@@ -181,6 +181,8 @@ class Engine {
   virtual std::string profile_report() const { return ""; }
   // Steps run through a CUDA graph so far (SimulationOptions::graphs; 0 on the CPU).
   virtual std::uint64_t graph_steps() const { return 0; }
+  // Frozen particles in the buried part (StepView::buried_part) since the last full sort.
+  virtual std::uint64_t buried_particles() const { return 0; }
   // The numerical watchdog (sim/watchdog.h), checked after every step while enabled.
   virtual void set_watchdog(const WatchdogOptions& o) { watchdog_ = o; }
   // Set-up only (SimulationOptions::interrupt_check): set around initialize/restore, then cleared;

@@ -171,6 +171,7 @@ BenchResult run_bench(const BenchOptions& o) {
   r.ensemble = members;
   r.graph_step_fraction = static_cast<double>(sim->graph_steps()) /
                           static_cast<double>(std::max<std::uint64_t>(1, sim->step()));
+  r.buried_particles = static_cast<std::int64_t>(sim->buried_particles());
   r.case_name = o.case_name;
   r.backend = sim->backend_name();
   r.precision = sim::to_string(o.precision);
@@ -227,7 +228,8 @@ std::string format_bench_json(const BenchResult& r) {
                       {"ranks", r.ranks},
                       {"decomposed", r.decomposed},
                       {"ensemble", r.ensemble},
-                      {"graph_step_fraction", r.graph_step_fraction}};
+                      {"graph_step_fraction", r.graph_step_fraction},
+                      {"buried_particles", r.buried_particles}};
   if (!r.profile.empty()) j["profile"] = r.profile;
   if (r.mps_watchdog_off > 0) {
     j["mps_watchdog_off"] = r.mps_watchdog_off;
@@ -252,7 +254,10 @@ std::string format_bench_text(const BenchResult& r) {
     << " s, " << r.mps << " MPS/s";
   if (r.mobile_particles > 0 && r.mobile_particles < r.particles)
     s << " (" << r.mobile_mps << " million mobile-particle-steps/s, " << r.mobile_particles
-      << " mobile)";
+      << " mobile"
+      << (r.buried_particles > 0 ? ", " + std::to_string(r.buried_particles) + " buried"
+                                 : std::string())
+      << ")";
   if (r.device_bytes_per_particle > 0)
     s << ", " << r.device_bytes_per_particle << " GPU bytes/particle";
   if (r.graph_step_fraction > 0)

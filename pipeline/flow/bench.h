@@ -46,6 +46,7 @@ struct BenchResult {
   int ensemble = 1;  // members; particles is per member, mps over all of them
   // The share of the first member's steps that ran through CUDA graphs (0 without).
   double graph_step_fraction = 0;
+  std::int64_t buried_particles = 0;  // frozen particles kept out of the steps (CPU)
 };
 
 // Builds the case, runs steps/10 (at least 5) warm-up steps, then times `steps` steps.

@@ -26,7 +26,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
     bool json = false, compare_cpu = false, profile = false, decompose = false;
     int reorder_every = 1, lanes = 0;
     double skin = 0;
-    std::string frozen_part = "on", graphs = "on";
+    std::string frozen_part = "on", buried_part = "on", graphs = "on";
     int cells_per_rc = sim::SimulationOptions{}.cells_per_cutoff;
   };
   auto a = std::make_shared<Args>();
@@ -62,6 +62,10 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
                        "store frozen particles apart, sorted once, with their sums over frozen "
                        "neighbours kept (on), or mixed with the mobile ones (off: only to measure "
                        "what it saves)");
+  add_measuring_switch(bench, "--buried-part", a->buried_part,
+                       "CPU: keep frozen particles farther than rc from every pore voxel out of "
+                       "the steps (on; needs the frozen part and a solid grid), or not (off: only "
+                       "to measure what it saves)");
   add_measuring_switch(bench, "--graphs", a->graphs,
                        "CUDA: replay runs of steps captured as CUDA graphs (on) or launch every "
                        "kernel (off: only to measure what graphs save; the results are the same)");
@@ -90,6 +94,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         const bool root = !bo.sim.comm || bo.sim.comm->rank() == 0;  // rank 0 alone prints
         bo.sim.profile = a->profile;
         bo.sim.frozen_part = a->frozen_part == "on";
+        bo.sim.buried_part = a->buried_part == "on";
         bo.sim.graphs = a->graphs == "on";
         bo.sim.lanes_per_particle = a->lanes;
         bo.sim.cells_per_cutoff = a->cells_per_rc;

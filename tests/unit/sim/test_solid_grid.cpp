@@ -123,6 +123,32 @@ TEST(SolidView, DepthIsTheExactDistanceToThePore) {
   EXPECT_EQ(v.depth(1.625, 1.625, 1.625), limit);  // the block's centre: beyond the search
 }
 
+// pore_within (which marks the buried frozen particles, StepView::buried_part): some pore voxel
+// closer than d exactly when the brute-force depth is below d, at the radii a run uses.
+TEST(SolidView, PoreWithinIsTheDepthBelowTheRadius) {
+  ms::SolidMask m = empty_mask(12, 12, 12, 0.25);
+  std::mt19937_64 gen(9);
+  for (auto& b : m.solid) b = gen() % 100 < 55;
+  for (int k = 1; k < 12; ++k)  // a thick block, so that some points are buried deeper than rc
+    for (int j = 1; j < 12; ++j)
+      for (int i = 1; i < 12; ++i) m.solid[m.index(i, j, k)] = 1;
+  const ms::SolidView<double> v = view_of(m, true);
+  std::uniform_real_distribution<double> u(0, 3.0);
+  int buried[3] = {0, 0, 0};
+  const double radii[3] = {0.3, 0.6, 1.001};
+  for (int n = 0; n < 2000; ++n) {
+    const double p[3] = {u(gen), u(gen), u(gen)};
+    const double depth = brute_depth(m, p, 10.0);
+    for (int r = 0; r < 3; ++r) {
+      ASSERT_EQ(v.pore_within(p[0], p[1], p[2], radii[r]), depth < radii[r])
+          << p[0] << " " << p[1] << " " << p[2] << ", radius " << radii[r];
+      buried[r] += depth >= radii[r];
+    }
+  }
+  EXPECT_GT(buried[2], 20);  // deeper than rc: sampled
+  EXPECT_GT(buried[0], buried[2]);
+}
+
 TEST(SolidFile, RoundTripsAndRefusesBadFiles) {
   const fs::path dir = fs::temp_directory_path() / "mesorock_solid_file_test";
   fs::create_directories(dir);
@@ -387,6 +413,65 @@ TEST_P(Solid, AParticleInAPocketItCannotLeaveIsTurnedOncePerStep) {
   EXPECT_LT(sim->wall_corrections(), 5u) << "inside the wall, the corrector leaves it to the grid";
   EXPECT_EQ(sim->solid_intrusion().inside, 0u);
   EXPECT_LT(fastest, 12.0);  // 6.9 left to the grid, 26 turned twice in a step
+}
+
+// The buried part (SimulationOptions::buried_part): a wall 3 rc thick filling its solid voxels,
+// under an mDPD liquid with the wall model and the bounce. Its particles farther than rc from the
+// pore leave the steps (the CPU); rho, phi and the forces are those of the run that keeps them up
+// to the order of the static sums, and so are the corrections and trajectories over 30 steps.
+TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
+  Scenario s;
+  s.model.conservative = ms::ConservativeKind::MDPD;
+  s.model.seed = 12;
+  const int fluid = s.model.add_type({"fluid", false, {0.5, 0, -0.3}});
+  const int wall = s.model.add_type({"wall", true, {0, 0, 0}});
+  s.model.set_pair(fluid, fluid, {-40, 25, 4.5});
+  s.model.set_pair(fluid, wall, {-30, 25, 4.5});
+  s.model.set_pair(wall, wall, {-40, 25, 4.5});
+  s.model.wall_model.enabled = true;
+  s.box.hi = {6, 6, 8};
+  auto mask = std::make_shared<ms::SolidMask>(empty_mask(12, 12, 16, 0.5));
+  for (int k = 0; k < 6; ++k)  // the wall: z in [0, 3), the pore above it (periodic in z)
+    for (int j = 0; j < 12; ++j)
+      for (int i = 0; i < 12; ++i) mask->solid[mask->index(i, j, k)] = 1;
+  s.model.solid.mask = mask;
+  std::int64_t next = 0;
+  // Random wall positions: every depth occurs, so a margin that buried too much would show.
+  ms::fill_random(s.particles, wall, {0, 0, 0}, {6, 6, 3}, 702, 13, next);
+  ms::fill_random(s.particles, fluid, {0, 0, 3.05}, {6, 6, 7.95}, 1146, 12, next);  // rho 6.5
+  ms::assign_maxwell_velocities(s.particles, s.model, 1.0, 12);
+  ms::SimulationOptions on = options(), off = options();
+  off.buried_part = false;
+  on.threads = off.threads = 2;
+  auto a = ms::make_simulation(s.model, s.box, s.particles, 0.01, on);
+  auto b = ms::make_simulation(s.model, s.box, s.particles, 0.01, off);
+  EXPECT_EQ(b->buried_particles(), 0u);
+  if (GetParam() == ms::BackendKind::CPU) {
+    // Farther than rc from the pore above (z >= 3) and from its periodic image below (z < 0).
+    std::uint64_t deep = 0;
+    for (size_t i = 0; i < s.particles.size(); ++i)
+      deep += s.particles.type[i] == wall && s.particles.z[i] > 1.001 && s.particles.z[i] < 1.999;
+    EXPECT_GT(deep, 100u);
+    EXPECT_EQ(a->buried_particles(), deep);
+  }
+  const auto ra = a->densities(), rb = b->densities();
+  const auto pa = a->boundary_volume_fractions(), pb = b->boundary_volume_fractions();
+  const auto fa = a->forces(), fb = b->forces();
+  for (size_t i = 0; i < ra.size(); ++i) {
+    ASSERT_NEAR(ra[i], rb[i], 1e-12 * (1 + ra[i])) << "particle " << i;
+    ASSERT_NEAR(pa[i], pb[i], 1e-12) << "particle " << i;
+    for (int c = 0; c < 3; ++c) ASSERT_NEAR(fa[c][i], fb[c][i], 1e-9) << "particle " << i;
+  }
+  a->run(30);
+  b->run(30);
+  EXPECT_EQ(a->wall_corrections(), b->wall_corrections());
+  const ms::ParticleSet qa = a->particles(), qb = b->particles();
+  for (size_t i = 0; i < qa.size(); ++i) {
+    ASSERT_EQ(qa.id[i], qb.id[i]);
+    ASSERT_NEAR(qa.z[i], qb.z[i], 1e-7) << "particle " << i;
+    ASSERT_NEAR(qa.vx[i], qb.vx[i], 1e-5) << "particle " << i;
+  }
+  EXPECT_EQ(a->solid_intrusion().inside, 0u);
 }
 
 TEST_P(Solid, ParticlesThatStartInTheSolidAreRefused) {
