@@ -63,9 +63,9 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
                        "neighbours kept (on), or mixed with the mobile ones (off: only to measure "
                        "what it saves)");
   add_measuring_switch(bench, "--buried-part", a->buried_part,
-                       "CPU: keep frozen particles farther than rc from every pore voxel out of "
-                       "the steps (on; needs the frozen part and a solid grid), or not (off: only "
-                       "to measure what it saves)");
+                       "keep frozen particles farther than rc from every pore voxel out of the "
+                       "steps (on; needs the frozen part and a solid grid; the GPU does it only "
+                       "when asked), or not (off: only to measure what it saves)");
   add_measuring_switch(bench, "--graphs", a->graphs,
                        "CUDA: replay runs of steps captured as CUDA graphs (on) or launch every "
                        "kernel (off: only to measure what graphs save; the results are the same)");
@@ -94,7 +94,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         const bool root = !bo.sim.comm || bo.sim.comm->rank() == 0;  // rank 0 alone prints
         bo.sim.profile = a->profile;
         bo.sim.frozen_part = a->frozen_part == "on";
-        bo.sim.buried_part = a->buried_part == "on";
+        bo.sim.buried_part = bo.sim.cuda_buried_part = a->buried_part == "on";
         bo.sim.graphs = a->graphs == "on";
         bo.sim.lanes_per_particle = a->lanes;
         bo.sim.cells_per_cutoff = a->cells_per_rc;

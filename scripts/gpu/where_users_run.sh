@@ -2,7 +2,8 @@
 # Where users run (docs/benchmarks.md, "The issue's Berea crop where users run"): the GPU tests,
 # then the issue's Berea scenes (100^3 crop at 0.5 and at rockprep's own 0.85 rc per voxel) run
 # by `rockflow run` and by a short `rockflow sweep`, with a reference binary (rockflow-old) and
-# the new one alternating; the new summaries' time split (stepping against each output).
+# the new one alternating; the new summaries' time split (stepping against each output); then the
+# GPU's buried part on and off in the bench's rock case.
 # Bundle (.carry/gpu/bins.tar.xz): rockflow, rockflow-old, rockprep, unit_gpu, unit_sim, stripped;
 # .carry/gpu/lib and rockprep-libs.tar.xz as scripts/gpu/build_bundle.sh (ROCKPREP=1) makes
 # them; the image in .carry/rock (never committed). TESTS=0 skips the tests.
@@ -52,4 +53,15 @@ for r in ('05','085'):
     print(r, 'time_split', n.get('time_split'))
     print(r, 'T old/new', o['final_temperature'], n['final_temperature'], 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
 PY
+# The buried part on the GPU (StepView::buried_part, off there unless asked): the bench's rock case
+# from each scene's solid.h5, on and off alternating, and the bulk liquid of the mobile count.
+for round in 1 2; do
+  for b in on off; do
+    $B/rockflow bench --backend cuda --case rock --solid $W/S085/solid.h5 --particles 4450000 \
+      --steps 200 --buried-part $b 2>&1 | tail -1 | sed "s/^/buried $b S085 r$round: /"
+    $B/rockflow bench --backend cuda --case rock --solid $W/S05/solid.h5 --particles 1000000 \
+      --steps 300 --buried-part $b 2>&1 | tail -1 | sed "s/^/buried $b S05 r$round: /"
+  done
+done
+$B/rockflow bench --backend cuda --case bulk --particles 1594498 --steps 200 2>&1 | tail -1
 echo done

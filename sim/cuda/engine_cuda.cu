@@ -112,14 +112,16 @@ __global__ void step_base_kernel(std::uint64_t* base, std::uint64_t steps) {
 // three thread blocks, 21 of a step's 115 us (H200; docs/benchmarks.md).
 //
 // First: each particle's key (its cell, offset by the cell count for a frozen one:
-// StepView::frozen_part) and its arrival rank among the particles of that key. The ranks come
+// StepView::frozen_part, and by twice that for a buried one in a full sort with `bury`:
+// StepView::buried_part) and its arrival rank among the particles of that key. The ranks come
 // from atomics, in no fixed order; order_in_cell_kernel makes the order that of the indices.
 template <class Real>
 __global__ void cell_count_kernel(StepView<Real> v, int count, int* cell, int* rank,
-                                  int* cell_count) {
+                                  int* cell_count, bool bury) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
-  const int key = cell_of(v, i) + (v.frozen_part > 0 && v.frozen(i) ? v.frozen_part : 0);
+  const int part = v.frozen_part > 0 && v.frozen(i) ? (bury && buried(v, i) ? 2 : 1) : 0;
+  const int key = cell_of(v, i) + part * v.frozen_part;
   cell[i] = key;
   rank[i] = atomicAdd(cell_count + key, 1);
 }
@@ -332,6 +334,14 @@ __global__ void correction_before_sort_kernel(StepView<Real> v, unsigned long lo
     apply_penetration_correction<Real, kVelocityEstimate>(v, i, dv);
     atomicAdd(count, 1ull);
   }
+}
+
+// The buried particles' rho and phi (StepView::buried_part): their static sums, with no mobile
+// neighbour to add, set once after the full sort; the steps' passes never reach them.
+template <class Real, class Sums>
+__global__ void buried_sums_kernel(StepView<Real> v, int first, Sums sums) {
+  const int i = first + blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n) sums(v, i);
 }
 
 // The frozen particles' static sums over their frozen neighbours (StepView::frozen_rho).
@@ -743,6 +753,7 @@ class CudaEngine final : public Engine<Real>,
       : device_(o.device),
         profile_(o.profile),
         frozen_part_(o.frozen_part),
+        burying_(o.buried_part),
         graphs_(o.graphs),
         lanes_(o.lanes) {
     check(cudaSetDevice(device_), "cudaSetDevice");
@@ -785,6 +796,8 @@ class CudaEngine final : public Engine<Real>,
     lane_list_ready_ = false;
     host_ = &host;
     frozen_sums_valid_ = false;
+    buried_part_ = false;
+    buried_count_ = 0;
     warmed_ = false;
     ++epoch_;
     corrected_ = wall_corrections();  // the count before the sort, kept
@@ -1134,6 +1147,7 @@ class CudaEngine final : public Engine<Real>,
     v.origin = origin_.get();
     v.cell_start = cell_start_.get();
     v.frozen_part = split_frozen() ? ncells_ : 0;
+    v.buried_part = buried_part_;
     if (frozen_sums_valid_) {
       v.frozen_rho = frozen_rho_.size() > 0 ? frozen_rho_.get() : nullptr;
       v.frozen_bvf = frozen_bvf_.size() > 0 ? frozen_bvf_.get() : nullptr;
@@ -1164,8 +1178,11 @@ class CudaEngine final : public Engine<Real>,
   // pass (no many-body term, no walls) the force pass scans, and its neighbour stash keeps a
   // warp's lanes in step. A small system shares each particle's scan among with_lanes(n) threads
   // (LaneGroup), so that it has threads enough to fill the GPU.
+  // Both pair passes stop before the buried part (StepView::buried_part), with the same count,
+  // so that they see one neighbour-list layout.
   template <class Pass>
-  void pair_sums(const StepView<Real>& v, Pass pass) {
+  void pair_sums(const StepView<Real>& all, Pass pass) {
+    const StepView<Real> v = stepping(all);
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
       for_each_lanes_kernel<L><<<blocks_for(L * v.n), kBlock>>>(v, pass, lane_list(L, v.n));
@@ -1173,7 +1190,8 @@ class CudaEngine final : public Engine<Real>,
     });
   }
   template <class Pass>
-  void pair_forces(const StepView<Real>& v, Pass pass) {
+  void pair_forces(const StepView<Real>& all, Pass pass) {
+    const StepView<Real> v = stepping(all);
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
       const int g = blocks_for(L * v.n);
@@ -1183,6 +1201,11 @@ class CudaEngine final : public Engine<Real>,
         for_each_stashed_lanes_kernel<L><<<g, kBlock, kStashBytes>>>(v, pass);
     });
     lane_list_ready_ = false;
+  }
+  // The particles a step's pair passes visit: all but the buried part.
+  StepView<Real> stepping(StepView<Real> v) const {
+    v.n -= buried_count_;
+    return v;
   }
   // The lanes' neighbour list (LaneList) for L lanes of n particles, grown when it must be (the
   // first step of a run, before any graph is captured; a decomposed run's count changes). The
@@ -1292,10 +1315,12 @@ class CudaEngine final : public Engine<Real>,
     ++(mobile_only ? mobile_sorts_ : full_sorts_);
     const int m = mobile_only ? mobile_count_ : n_;
     const int keys = mobile_only ? ncells_ : cell_keys();
+    const bool bury = !mobile_only && may_bury();
+    if (!mobile_only) buried_part_ = bury, buried_count_ = 0;
     // The counting sort (cell_count_kernel): keys and ranks (in index_), the counts summed into
     // cell_start, the particles into their cells' slots, then into index order within each cell.
     cell_count_kernel<<<blocks_for(m), kBlock>>>(view(), m, cell_.get(), index_.get(),
-                                                 cell_count_.get());
+                                                 cell_count_.get(), bury);
     size_t temp = sort_temp_.size();
     check(cub::DeviceScan::ExclusiveSum(sort_temp_.get(), temp, cell_count_.get(),
                                         cell_start_.get(), keys + 1),
@@ -1360,6 +1385,13 @@ class CudaEngine final : public Engine<Real>,
     check(cudaMemcpy(&mobile_count_, cell_start_.get() + ncells_, sizeof(int),
                      cudaMemcpyDeviceToHost),
           "mobile count");
+    if (buried_part_) {
+      int buried_start = n_;
+      check(cudaMemcpy(&buried_start, cell_start_.get() + 2 * ncells_, sizeof(int),
+                       cudaMemcpyDeviceToHost),
+            "buried part");
+      buried_count_ = n_ - buried_start;
+    }
     const size_t frozen = static_cast<size_t>(n_ - mobile_count_);
     using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
     if constexpr (C::needs_density || W::enabled) {
@@ -1369,6 +1401,21 @@ class CudaEngine final : public Engine<Real>,
           <<<blocks_for(n_), kBlock>>>(view(), frozen_rho_.get(), frozen_bvf_.get());
     }
     frozen_sums_valid_ = true;
+    if constexpr (C::needs_density || W::enabled)
+      if (buried_count_ > 0)
+        buried_sums_kernel<<<blocks_for(buried_count_), kBlock>>>(view(), n_ - buried_count_,
+                                                                  typename Steps::Sums{});
+  }
+
+  // Whether a full sort may bury (StepView::buried_part): with the frozen part, the solid grid's
+  // bounce, no rigid slabs, on one rank, and no mobile particle in the solid now (the CPU's
+  // find_buried says why).
+  bool may_bury() {
+    const HostState<Real>& h = *host_;
+    if (!burying_ || !split_frozen() || !h.solid.enabled() || !h.solid.bounce ||
+        h.slabs.count > 0 || this->hooks().distributed())
+      return false;
+    return solid_intrusion().inside == 0;
   }
 
  public:
@@ -1598,8 +1645,9 @@ class CudaEngine final : public Engine<Real>,
     return b;
   }
 
-  // Sort keys: the cells, twice with a frozen part (StepView::frozen_part).
-  int cell_keys() const { return split_frozen() ? 2 * ncells_ : ncells_; }
+  // Sort keys: the cells, three times with a frozen part (StepView::frozen_part; the third, the
+  // buried part, is empty unless the full sort buries: StepView::buried_part).
+  int cell_keys() const { return split_frozen() ? 3 * ncells_ : ncells_; }
   // Frozen particles in a part of their own (StepView::frozen_part): with frozen types, unless
   // switched off (SimulationOptions::frozen_part, to measure what it saves).
   bool split_frozen() const { return frozen_part_ && host_->frozen_mask != 0; }
@@ -1607,6 +1655,9 @@ class CudaEngine final : public Engine<Real>,
   bool left_to_grid_on() const { return W::enabled && host_->needs_left_to_grid(); }
 
   std::uint64_t graph_steps() const override { return graph_steps_; }
+  std::uint64_t buried_particles() const override {
+    return static_cast<std::uint64_t>(buried_count_);
+  }
 
  private:
   // ---- CUDA graphs (SimulationOptions::graphs). ----
@@ -1653,8 +1704,9 @@ class CudaEngine final : public Engine<Real>,
     std::uint64_t dt_bits = 0;
     std::memcpy(&dt_bits, &dt, sizeof dt_bits);
     for (std::uint64_t x :
-         {std::uint64_t(n_), std::uint64_t(mobile_count_), std::uint64_t(ncells_),
-          std::uint64_t(frozen_sums_valid_), std::uint64_t(tail_pending_), dt_bits, epoch_})
+         {std::uint64_t(n_), std::uint64_t(mobile_count_), std::uint64_t(buried_count_),
+          std::uint64_t(ncells_), std::uint64_t(frozen_sums_valid_), std::uint64_t(tail_pending_),
+          dt_bits, epoch_})
       k.push_back(static_cast<std::uintptr_t>(x));
     return k;
   }
@@ -1830,6 +1882,12 @@ class CudaEngine final : public Engine<Real>,
   std::uint64_t early_steps_ = 0, late_steps_ = 0;
   // Frozen types only: the frozen part's start and static sums (StepView::frozen_rho).
   bool frozen_part_ = true;
+  // The buried part (StepView::buried_part) since the last full sort: whether there is one and
+  // how many particles it holds (the steps' pair passes stop before them); burying_:
+  // SimulationOptions::buried_part.
+  bool burying_ = true;
+  bool buried_part_ = false;
+  int buried_count_ = 0;
   int mobile_count_ = 0;
   std::uint64_t full_sorts_ = 0, mobile_sorts_ = 0;  // profiling
   bool frozen_sums_valid_ = false;

@@ -13,6 +13,7 @@ struct CudaEngineOptions {
   int device = 0;
   bool profile = false;
   bool frozen_part = true;
+  bool buried_part = true;
   bool graphs = true;
   int lanes = 0;
 };

@@ -417,7 +417,7 @@ TEST_P(Solid, AParticleInAPocketItCannotLeaveIsTurnedOncePerStep) {
 
 // The buried part (SimulationOptions::buried_part): a wall 3 rc thick filling its solid voxels,
 // under an mDPD liquid with the wall model and the bounce. Its particles farther than rc from the
-// pore leave the steps (the CPU); rho, phi and the forces are those of the run that keeps them up
+// pore leave the steps; rho, phi and the forces are those of the run that keeps them up
 // to the order of the static sums, and so are the corrections and trajectories over 30 steps.
 TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
   Scenario s;
@@ -441,19 +441,18 @@ TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
   ms::fill_random(s.particles, fluid, {0, 0, 3.05}, {6, 6, 7.95}, 1146, 12, next);  // rho 6.5
   ms::assign_maxwell_velocities(s.particles, s.model, 1.0, 12);
   ms::SimulationOptions on = options(), off = options();
+  on.cuda_buried_part = true;
   off.buried_part = false;
   on.threads = off.threads = 2;
   auto a = ms::make_simulation(s.model, s.box, s.particles, 0.01, on);
   auto b = ms::make_simulation(s.model, s.box, s.particles, 0.01, off);
   EXPECT_EQ(b->buried_particles(), 0u);
-  if (GetParam() == ms::BackendKind::CPU) {
-    // Farther than rc from the pore above (z >= 3) and from its periodic image below (z < 0).
-    std::uint64_t deep = 0;
-    for (size_t i = 0; i < s.particles.size(); ++i)
-      deep += s.particles.type[i] == wall && s.particles.z[i] > 1.001 && s.particles.z[i] < 1.999;
-    EXPECT_GT(deep, 100u);
-    EXPECT_EQ(a->buried_particles(), deep);
-  }
+  // Farther than rc from the pore above (z >= 3) and from its periodic image below (z < 0).
+  std::uint64_t deep = 0;
+  for (size_t i = 0; i < s.particles.size(); ++i)
+    deep += s.particles.type[i] == wall && s.particles.z[i] > 1.001 && s.particles.z[i] < 1.999;
+  EXPECT_GT(deep, 100u);
+  EXPECT_EQ(a->buried_particles(), deep);
   const auto ra = a->densities(), rb = b->densities();
   const auto pa = a->boundary_volume_fractions(), pb = b->boundary_volume_fractions();
   const auto fa = a->forces(), fb = b->forces();
