@@ -6,7 +6,8 @@
 # GPU's buried part on and off in the bench's rock case.
 # Bundle (.carry/gpu/bins.tar.xz): rockflow, rockflow-old, rockprep, unit_gpu, unit_sim, stripped;
 # .carry/gpu/lib and rockprep-libs.tar.xz as scripts/gpu/build_bundle.sh (ROCKPREP=1) makes
-# them; the image in .carry/rock (never committed). TESTS=0 skips the tests.
+# them; the image in .carry/rock (never committed). TESTS=0 skips the tests, RUNS=0 the runs and
+# sweeps, BURIED=0 the buried part's benches.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
@@ -29,6 +30,7 @@ for r in 05 085; do
     --threads $(nproc) --seed 7 "${extra[@]}" --out $W/S$r > $W/prep$r.log 2>&1 || tail -3 $W/prep$r.log
   grep summary $W/prep$r.log
 done
+if [ "${RUNS:-1}" = 1 ]; then
 for round in 1 2; do
   for r in 05 085; do
     for bin in rockflow-old rockflow; do
@@ -53,8 +55,10 @@ for r in ('05','085'):
     print(r, 'time_split', n.get('time_split'))
     print(r, 'T old/new', o['final_temperature'], n['final_temperature'], 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
 PY
+fi
 # The buried part on the GPU (StepView::buried_part, off there unless asked): the bench's rock case
 # from each scene's solid.h5, on and off alternating, and the bulk liquid of the mobile count.
+if [ "${BURIED:-1}" = 1 ]; then
 for round in 1 2; do
   for b in on off; do
     $B/rockflow bench --backend cuda --case rock --solid $W/S085/solid.h5 --particles 4450000 \
@@ -64,4 +68,5 @@ for round in 1 2; do
   done
 done
 $B/rockflow bench --backend cuda --case bulk --particles 1594498 --steps 200 2>&1 | tail -1
+fi
 echo done
