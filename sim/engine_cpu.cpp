@@ -28,10 +28,10 @@ class CellSorter {
   // to keys + 1, a sort of the mobile part keeps the frozen part's entries behind it.
   // carry_forces: forces, densities and phi move with their particles too (a restored state; a
   // step's sort comes before its force pass, which writes them anew).
-  // With `buried` (one flag per particle), a flagged frozen particle's key is the cell plus twice
-  // frozen_offset (StepView::buried_part).
+  // With `bury`, a buried frozen particle's key is the cell plus twice frozen_offset
+  // (StepView::buried_part).
   void sort(HostState<Real>& s, int count, int keys, int frozen_offset, bool carry_forces,
-            const std::vector<std::uint8_t>* buried = nullptr) {
+            bool bury = false) {
     const bool all = count == s.size();
     if (all)
       s.cell_start.assign(static_cast<size_t>(keys) + 1, 0);
@@ -40,14 +40,14 @@ class CellSorter {
     cell_of_.resize(static_cast<size_t>(count));
     dest_.resize(static_cast<size_t>(count));
     const StepView<Real> v = s.view();
+    // The keys in parallel (a full sort that buries searches the voxels about each frozen
+    // particle), then counted in order.
+#pragma omp parallel for schedule(static)
     for (int i = 0; i < count; ++i) {
-      const int part = frozen_offset > 0 && v.frozen(i)
-                           ? (buried && (*buried)[static_cast<size_t>(i)] ? 2 : 1)
-                           : 0;
-      const int c = cell_of(v, i) + part * frozen_offset;
-      cell_of_[static_cast<size_t>(i)] = c;
-      ++s.cell_start[static_cast<size_t>(c) + 1];
+      const int part = frozen_offset > 0 && v.frozen(i) ? (bury && buried(v, i) ? 2 : 1) : 0;
+      cell_of_[static_cast<size_t>(i)] = cell_of(v, i) + part * frozen_offset;
     }
+    for (int i = 0; i < count; ++i) ++s.cell_start[static_cast<size_t>(cell_of_[i]) + 1];
     for (int c = 0; c < keys; ++c) s.cell_start[c + 1] += s.cell_start[c];
     fill_.assign(s.cell_start.begin(), s.cell_start.begin() + keys);
     for (int i = 0; i < count; ++i) dest_[static_cast<size_t>(i)] = fill_[cell_of_[i]]++;
@@ -317,11 +317,8 @@ class CpuEngine final : public Engine<Real>,
     } else {
       frozen_part_ = ncells;
       frozen_sums_valid_ = false;
-      buried_part_ = false;
-      const bool bury = find_buried();
-      sorter_.sort(*s_, n, (bury ? 3 : 2) * ncells, ncells, carry_forces,
-                   bury ? &buried_ : nullptr);
-      buried_part_ = bury;
+      buried_part_ = burying_ && s_->may_bury() && solid_intrusion().inside == 0;
+      sorter_.sort(*s_, n, (buried_part_ ? 3 : 2) * ncells, ncells, carry_forces, buried_part_);
       update_frozen_sums();
     }
     list_.build(view(), Real(1) + s_->skin);
@@ -332,28 +329,6 @@ class CpuEngine final : public Engine<Real>,
   bool split_frozen() const {
     return frozen_part_option_ && s_->frozen_mask != 0 && !this->hooks().distributed();
   }
-  // Flags the frozen particles no mobile one can come within rc of (StepView::buried_part):
-  // possible with the solid grid's bounce, which keeps every mobile particle that starts a step
-  // in the pore there, when no mobile particle is in the solid now and there are no rigid slabs
-  // (which move without the bounce). Returns whether any is flagged.
-  bool find_buried() {
-    const StepView<Real> v = s_->view();
-    if (!burying_ || !v.solid.enabled() || !v.solid.bounce || v.slabs.count > 0) return false;
-    const int n = v.n;
-    buried_.assign(static_cast<size_t>(n), 0);
-    int flagged = 0, intruders = 0;
-#pragma omp parallel for schedule(static) reduction(+ : flagged, intruders)
-    for (int i = 0; i < n; ++i) {
-      if (!v.frozen(i)) {
-        intruders += v.solid.in_solid(v.x[i], v.y[i], v.z[i]) ? 1 : 0;
-      } else if (buried(v, i)) {
-        buried_[static_cast<size_t>(i)] = 1;
-        ++flagged;
-      }
-    }
-    return intruders == 0 && flagged > 0;
-  }
-
   // After a full sort with a frozen part: each frozen particle's sums over its frozen neighbours
   // (StepView::frozen_rho), kept until the frozen particles may change (a new state, an
   // injection).
@@ -674,11 +649,10 @@ class CpuEngine final : public Engine<Real>,
   bool frozen_part_option_ = true;
   int frozen_part_ = 0;
   bool frozen_sums_valid_ = false;
-  // The buried part (find_buried) and its flags at the last full sort; burying_: on unless
-  // switched off (SimulationOptions::buried_part, to measure what it saves).
+  // Whether the last full sort made a buried part (StepView::buried_part; kernels.h buried);
+  // burying_: SimulationOptions::buried_part.
   bool burying_ = true;
   bool buried_part_ = false;
-  std::vector<std::uint8_t> buried_;
   std::vector<Real> frozen_rho_, frozen_bvf_;
   HostState<Real>* s_ = nullptr;
   CellSorter<Real> sorter_;

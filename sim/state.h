@@ -78,6 +78,11 @@ struct HostState {
   bool needs_left_to_grid() const {
     return solid.bounce && solid.enabled() && walls.wall_mask != 0;
   }
+  // Whether the scene allows a buried part (StepView::buried_part): the solid grid's bounce keeps
+  // every mobile particle that starts a step in the pore there, and no rigid slab (which moves
+  // without the bounce) exists. The engines add the run's own conditions (the option, the frozen
+  // part, one rank) and that no mobile particle is in the solid now (solid_intrusion).
+  bool may_bury() const { return solid.enabled() && solid.bounce && slabs.count == 0; }
   void size_left_to_grid() {
     if (needs_left_to_grid()) left_to_grid.assign(x.size(), 0);
   }

@@ -1407,15 +1407,11 @@ class CudaEngine final : public Engine<Real>,
                                                                   typename Steps::Sums{});
   }
 
-  // Whether a full sort may bury (StepView::buried_part): with the frozen part, the solid grid's
-  // bounce, no rigid slabs, on one rank, and no mobile particle in the solid now (the CPU's
-  // find_buried says why).
+  // Whether a full sort may bury (StepView::buried_part; HostState::may_bury): with the frozen
+  // part, on one rank, and no mobile particle in the solid now.
   bool may_bury() {
-    const HostState<Real>& h = *host_;
-    if (!burying_ || !split_frozen() || !h.solid.enabled() || !h.solid.bounce ||
-        h.slabs.count > 0 || this->hooks().distributed())
-      return false;
-    return solid_intrusion().inside == 0;
+    return burying_ && split_frozen() && host_->may_bury() && !this->hooks().distributed() &&
+           solid_intrusion().inside == 0;
   }
 
  public:
