@@ -18,7 +18,7 @@ nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee $O/gpu.tx
 cat .carry/gpu/COMMIT | tee -a $O/gpu.txt
 if [ "${TESTS:-1}" = 1 ]; then
   $B/unit_gpu > $W/unit_gpu.txt 2>&1; echo "unit_gpu rc=$? $(grep -E '^\[  (PASSED|FAILED)' $W/unit_gpu.txt | tr '\n' ' ')"
-  $B/unit_sim --gtest_filter='*CUDA*:*Cuda*:*Gpu*:*Ensemble*:*Solid*:*Watchdog*:*Wall*:*Checkpoint*' \
+  $B/unit_sim --gtest_filter='*/cuda:*CUDA*:*Cuda*:*Gpu*' \
     > $W/unit_sim.txt 2>&1
   echo "unit_sim rc=$? $(grep -E '^\[  (PASSED|FAILED)' $W/unit_sim.txt | tr '\n' ' ')"
   grep -E "^\[  FAILED" $W/unit_gpu.txt $W/unit_sim.txt | head
