@@ -317,7 +317,7 @@ void Runner::finish() {
   if (progress_) {
     std::cerr << "rockflow: done: " << total_steps_ << " steps in " << std::setprecision(3)
               << seconds << " s (" << summary["mps"].get<double>() << " MPS/s, " << mobile_mps
-              << " of mobile particles; stepping " << step_seconds_ << " s, outputs "
+              << " million mobile-particle-steps/s; stepping " << step_seconds_ << " s, outputs "
               << output_total << " s";
     if (checkpoint_seconds_ > 0) std::cerr << ", checkpoints " << checkpoint_seconds_ << " s";
     std::cerr << "); outputs in " << options_.out_dir.string()
