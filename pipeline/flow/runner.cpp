@@ -291,6 +291,8 @@ void Runner::finish() {
       seconds > 0 ? mobile * static_cast<double>(total_steps_) / seconds / 1e6 : 0.0;
   summary["mobile_particles"] = mobile;
   summary["mobile_mps"] = mobile_mps;
+  // Frozen particles no step meets (SimulationOptions::buried_part): deep in a thick wall shell.
+  summary["buried_particles"] = sim_.buried_particles();
   // Where the run's time went (this process's share of a resumed run): what the outputs cost
   // beside the steps tells a user which output to sample less often.
   nlohmann::json outputs = nlohmann::json::object();

@@ -424,6 +424,8 @@ thermo_every = 10
   ASSERT_GT(mps, 0.0);
   EXPECT_NEAR(summary.at("mobile_mps").get<double>(), mps * 250.0 / 320.0, 1e-9 * mps);
   EXPECT_NE(r.err.find("million mobile-particle-steps/s"), std::string::npos) << r.err;
+  // Without a solid grid's bounce no frozen particle may leave the steps (HostState::may_bury).
+  EXPECT_EQ(summary.at("buried_particles").get<int>(), 0);
   // Where the time went: stepping and the thermo rows (3 of them), within the run's seconds.
   const auto& split = summary.at("time_split");
   const double stepping = split.at("steps_seconds").get<double>();
