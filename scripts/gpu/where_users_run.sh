@@ -7,7 +7,7 @@
 # Bundle (.carry/gpu/bins.tar.xz): rockflow, rockflow-old, rockprep, unit_gpu, unit_sim, stripped;
 # .carry/gpu/lib and rockprep-libs.tar.xz as scripts/gpu/build_bundle.sh (ROCKPREP=1) makes
 # them; the image in .carry/rock (never committed). TESTS=0 skips the tests, RUNS=0 the runs and
-# sweeps, BURIED=0 the buried part's benches.
+# sweeps, BURIED=0 the buried part's benches; ROUNDS=1 runs each comparison once instead of twice.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
@@ -30,8 +30,21 @@ for r in 05 085; do
     --threads $(nproc) --seed 7 "${extra[@]}" --out $W/S$r > $W/prep$r.log 2>&1 || tail -3 $W/prep$r.log
   grep summary $W/prep$r.log
 done
+# The buried part on the GPU (StepView::buried_part, off there unless asked): the bench's rock case
+# from each scene's solid.h5, on and off alternating, and the bulk liquid of the mobile count.
+if [ "${BURIED:-1}" = 1 ]; then
+for round in $(seq ${ROUNDS:-2}); do
+  for b in on off; do
+    $B/rockflow bench --backend cuda --case rock --solid $W/S085/solid.h5 --particles 4450000 \
+      --steps 200 --buried-part $b 2>&1 | tail -1 | sed "s/^/buried $b S085 r$round: /"
+    $B/rockflow bench --backend cuda --case rock --solid $W/S05/solid.h5 --particles 1000000 \
+      --steps 300 --buried-part $b 2>&1 | tail -1 | sed "s/^/buried $b S05 r$round: /"
+  done
+done
+$B/rockflow bench --backend cuda --case bulk --particles 1594498 --steps 200 2>&1 | tail -1
+fi
 if [ "${RUNS:-1}" = 1 ]; then
-for round in 1 2; do
+for round in $(seq ${ROUNDS:-2}); do
   for r in 05 085; do
     for bin in rockflow-old rockflow; do
       $B/$bin run $W/S$r/scene.toml --backend cuda --out $W/run_${bin}_$r > $W/run.txt 2>&1
@@ -55,18 +68,5 @@ for r in ('05','085'):
     print(r, 'time_split', n.get('time_split'))
     print(r, 'T old/new', o['final_temperature'], n['final_temperature'], 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
 PY
-fi
-# The buried part on the GPU (StepView::buried_part, off there unless asked): the bench's rock case
-# from each scene's solid.h5, on and off alternating, and the bulk liquid of the mobile count.
-if [ "${BURIED:-1}" = 1 ]; then
-for round in 1 2; do
-  for b in on off; do
-    $B/rockflow bench --backend cuda --case rock --solid $W/S085/solid.h5 --particles 4450000 \
-      --steps 200 --buried-part $b 2>&1 | tail -1 | sed "s/^/buried $b S085 r$round: /"
-    $B/rockflow bench --backend cuda --case rock --solid $W/S05/solid.h5 --particles 1000000 \
-      --steps 300 --buried-part $b 2>&1 | tail -1 | sed "s/^/buried $b S05 r$round: /"
-  done
-done
-$B/rockflow bench --backend cuda --case bulk --particles 1594498 --steps 200 2>&1 | tail -1
 fi
 echo done
