@@ -207,9 +207,9 @@ std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOp
     return make_cpu_engine<Real>(model,
                                  CpuEngineOptions{opt.threads, opt.frozen_part, opt.buried_part});
 #if defined(MESOROCK_HAVE_CUDA)
-  return make_cuda_engine<Real>(model, CudaEngineOptions{opt.device, opt.profile, opt.frozen_part,
-                                                         opt.buried_part && opt.cuda_buried_part,
-                                                         opt.graphs, opt.lanes_per_particle});
+  return make_cuda_engine<Real>(
+      model, CudaEngineOptions{opt.device, opt.profile, opt.frozen_part, opt.buried_part,
+                               opt.graphs, opt.lanes_per_particle});
 #else
   throw DeviceError(cuda_unavailable_reason());
 #endif

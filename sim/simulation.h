@@ -39,10 +39,8 @@ struct SimulationOptions {
   // With the frozen part and the solid grid's bounce: frozen particles farther than rc from every
   // pore voxel kept out of every step's passes (StepView::buried_part). Off only to measure what
   // that saves (`rockflow bench --buried-part off`); the order of the frozen particles' static
-  // sums differs, nothing else. The GPU buries only with cuda_buried_part as well, until a device
-  // has run its tests and measured it (`rockflow bench --buried-part on` sets both).
+  // sums differs, nothing else.
   bool buried_part = true;
-  bool cuda_buried_part = false;
   // CUDA backend: runs of steps captured once as a CUDA graph and replayed (ARCHITECTURE.md), so
   // a small system is not bound by kernel launches. Every bit of the result is the same; off only
   // to measure what it saves (`rockflow bench --graphs off`). Runs with a reorder interval,

@@ -94,7 +94,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         const bool root = !bo.sim.comm || bo.sim.comm->rank() == 0;  // rank 0 alone prints
         bo.sim.profile = a->profile;
         bo.sim.frozen_part = a->frozen_part == "on";
-        bo.sim.buried_part = bo.sim.cuda_buried_part = a->buried_part == "on";
+        bo.sim.buried_part = a->buried_part == "on";
         bo.sim.graphs = a->graphs == "on";
         bo.sim.lanes_per_particle = a->lanes;
         bo.sim.cells_per_cutoff = a->cells_per_rc;

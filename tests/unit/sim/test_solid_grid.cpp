@@ -441,7 +441,6 @@ TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
   ms::fill_random(s.particles, fluid, {0, 0, 3.05}, {6, 6, 7.95}, 1146, 12, next);  // rho 6.5
   ms::assign_maxwell_velocities(s.particles, s.model, 1.0, 12);
   ms::SimulationOptions on = options(), off = options();
-  on.cuda_buried_part = true;
   off.buried_part = false;
   on.threads = off.threads = 2;
   auto a = ms::make_simulation(s.model, s.box, s.particles, 0.01, on);
