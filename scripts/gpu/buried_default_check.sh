@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# One lean device call (bundle .carry/gpu as where_users_run.sh; COMMIT names its build): GPU tests with the buried part on by default, rockprep's scenes run by ed1772a
-# (rockflow-old) and this build in the scene's double precision, this build in single, and the
-# bench's rock and bulk cases in double.
+# One lean device call for the GPU's buried part by default (bundle .carry/gpu as
+# where_users_run.sh makes it; .carry/gpu/COMMIT names its build): the GPU tests, rockprep's
+# scenes run by ed1772a (rockflow-old) and by this build in the scenes' double precision and in
+# single, and the bench's rock and bulk cases in double and single.
 set -uo pipefail
 export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
 mkdir -p .carry/gpu/bin && tar xJf .carry/gpu/bins.tar.xz -C .carry/gpu/bin
