@@ -2,12 +2,14 @@
 # Where users run (docs/benchmarks.md, "The issue's Berea crop where users run"): the GPU tests,
 # then the issue's Berea scenes (100^3 crop at 0.5 and at rockprep's own 0.85 rc per voxel) run
 # by `rockflow run` and by a short `rockflow sweep`, with a reference binary (rockflow-old) and
-# the new one alternating; the new summaries' time split (stepping against each output); then the
-# GPU's buried part on and off in the bench's rock case.
+# the new one alternating; the new summaries' time split (stepping against each output); the
+# GPU's buried part on and off in the bench's rock case; and the scenes in single precision (their
+# default is double) beside the bench's rock and bulk cases in both precisions.
 # Bundle (.carry/gpu/bins.tar.xz): rockflow, rockflow-old, rockprep, unit_gpu, unit_sim, stripped;
 # .carry/gpu/lib and rockprep-libs.tar.xz as scripts/gpu/build_bundle.sh (ROCKPREP=1) makes
 # them; the image in .carry/rock (never committed). TESTS=0 skips the tests, RUNS=0 the runs and
-# sweeps, BURIED=0 the buried part's benches; ROUNDS=1 runs each comparison once instead of twice.
+# sweeps, BURIED=0 the buried part's benches, PRECISION=0 the precision comparison; ROUNDS=1 runs
+# each comparison once instead of twice.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
@@ -30,7 +32,7 @@ for r in 05 085; do
     --threads $(nproc) --seed 7 "${extra[@]}" --out $W/S$r > $W/prep$r.log 2>&1 || tail -3 $W/prep$r.log
   grep summary $W/prep$r.log
 done
-# The buried part on the GPU (StepView::buried_part, off there unless asked): the bench's rock case
+# The buried part on the GPU (StepView::buried_part, the default): the bench's rock case
 # from each scene's solid.h5, on and off alternating, and the bulk liquid of the mobile count.
 if [ "${BURIED:-1}" = 1 ]; then
 for round in $(seq ${ROUNDS:-2}); do
@@ -66,7 +68,23 @@ import json
 for r in ('05','085'):
     n=json.load(open(f'/tmp/r16/run_rockflow_{r}/summary.json')); o=json.load(open(f'/tmp/r16/run_rockflow-old_{r}/summary.json'))
     print(r, 'time_split', n.get('time_split'))
-    print(r, 'T old/new', o['final_temperature'], n['final_temperature'], 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
+    print(r, 'T old/new', o['final_temperature'], n['final_temperature'], 'buried new', n.get('buried_particles'), 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
 PY
+fi
+# What a scene's double precision costs: the scenes run in single by both binaries, and the bench's
+# rock and bulk cases (the rock's mobile count) in double and single.
+if [ "${PRECISION:-1}" = 1 ]; then
+for r in 05 085; do
+  sed 's/^seed = 7$/seed = 7\nprecision = "single"/' $W/S$r/scene.toml > $W/S$r/single.toml
+  for bin in rockflow-old rockflow; do
+    $B/$bin run $W/S$r/single.toml --backend cuda --out $W/single_${bin}_$r > $W/run.txt 2>&1
+    echo "single run S$r $bin rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"
+  done
+done
+for p in double single; do
+  $B/rockflow bench --backend cuda --case rock --solid $W/S05/solid.h5 --particles 1000000 \
+    --steps 300 --precision $p 2>&1 | tail -1
+  $B/rockflow bench --backend cuda --case bulk --particles 370043 --steps 1000 --precision $p 2>&1 | tail -1
+done
 fi
 echo done
