@@ -9,13 +9,15 @@
 # .carry/gpu/lib and rockprep-libs.tar.xz as scripts/gpu/build_bundle.sh (ROCKPREP=1) makes
 # them; the image in .carry/rock (never committed). TESTS=0 skips the tests, RUNS=0 the runs and
 # sweeps, BURIED=0 the buried part's benches, PRECISION=0 the precision comparison; ROUNDS=1 runs
-# each comparison once instead of twice.
+# each comparison once instead of twice; RESOLUTION=0 skips the resolution series. Without
+# rockflow-old in the bundle the runs and sweeps use the new binary alone.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
 mkdir -p .carry/gpu/bin && tar xJf .carry/gpu/bins.tar.xz -C .carry/gpu/bin
 mkdir -p /tmp/rockprep-libs && tar xJf .carry/gpu/rockprep-libs.tar.xz -C /tmp/rockprep-libs
 B=$PWD/.carry/gpu/bin; O=${OUT:-/tmp/out}; W=/tmp/r16; mkdir -p $O $W
+bins="rockflow-old rockflow"; [ -x $B/rockflow-old ] || bins=rockflow
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee $O/gpu.txt
 cat .carry/gpu/COMMIT | tee -a $O/gpu.txt
 if [ "${TESTS:-1}" = 1 ]; then
@@ -48,12 +50,12 @@ fi
 if [ "${RUNS:-1}" = 1 ]; then
 for round in $(seq ${ROUNDS:-2}); do
   for r in 05 085; do
-    for bin in rockflow-old rockflow; do
+    for bin in $bins; do
       $B/$bin run $W/S$r/scene.toml --backend cuda --out $W/run_${bin}_$r > $W/run.txt 2>&1
       echo "run S$r $bin r$round rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"
     done
   done
-  for bin in rockflow-old rockflow; do
+  for bin in $bins; do
     t=$(date +%s.%N)
     $B/$bin sweep $W/S05/scene.toml --backend cuda --out $W/sweep_$bin --forces 0.02 \
       --viscosity 6.111 --viscosity-error 0.041 --warmup 1000 --block-steps 500 --window 2 \
@@ -61,14 +63,16 @@ for round in $(seq ${ROUNDS:-2}); do
     echo "sweep S05 $bin r$round rc=$? $(python3 -c "print(round($(date +%s.%N) - $t, 2))") s: $(grep -iE 'MPS' $W/sweep.txt | tail -1)"
   done
 done
-for r in 05 085; do cp $W/run_rockflow_$r/summary.json $O/summary_new_$r.json; cp $W/run_rockflow-old_$r/summary.json $O/summary_old_$r.json; done
-cp $W/run_rockflow_085/thermo.csv $O/thermo_new_085.csv; cp $W/run_rockflow-old_085/thermo.csv $O/thermo_old_085.csv
+for r in 05 085; do cp $W/run_rockflow_$r/summary.json $O/summary_new_$r.json; done
+cp $W/run_rockflow_085/thermo.csv $O/thermo_new_085.csv
 python3 - <<'PY'
 import json
 for r in ('05','085'):
-    n=json.load(open(f'/tmp/r16/run_rockflow_{r}/summary.json')); o=json.load(open(f'/tmp/r16/run_rockflow-old_{r}/summary.json'))
+    n=json.load(open(f'/tmp/r16/run_rockflow_{r}/summary.json'))
+    try: o=json.load(open(f'/tmp/r16/run_rockflow-old_{r}/summary.json'))
+    except OSError: o={}
     print(r, 'time_split', n.get('time_split'))
-    print(r, 'T old/new', o['final_temperature'], n['final_temperature'], 'buried new', n.get('buried_particles'), 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
+    print(r, 'T old/new', o.get('final_temperature'), n['final_temperature'], 'buried new', n.get('buried_particles'), 'solid', o.get('solid',{}).get('invariant'), n.get('solid',{}).get('invariant'))
 PY
 fi
 # What a scene's double precision costs: the scenes run in single by both binaries, and the bench's
@@ -76,7 +80,7 @@ fi
 if [ "${PRECISION:-1}" = 1 ]; then
 for r in 05 085; do
   sed 's/^seed = 7$/seed = 7\nprecision = "single"/' $W/S$r/scene.toml > $W/S$r/single.toml
-  for bin in rockflow-old rockflow; do
+  for bin in $bins; do
     $B/$bin run $W/S$r/single.toml --backend cuda --out $W/single_${bin}_$r > $W/run.txt 2>&1
     echo "single run S$r $bin rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"
   done
@@ -85,6 +89,25 @@ for p in double single; do
   $B/rockflow bench --backend cuda --case rock --solid $W/S05/solid.h5 --particles 1000000 \
     --steps 300 --precision $p 2>&1 | tail -1
   $B/rockflow bench --backend cuda --case bulk --particles 370043 --steps 1000 --precision $p 2>&1 | tail -1
+done
+fi
+# What the resolution does to the fluid's share (docs/benchmarks.md, "The rock target and the
+# resolution"): rockprep's scene of the Berea 50^3 crop at several rc per voxel (it picks 0.85 for
+# the 100^3 crop), the bench's rock case from each solid.h5 at about 4.45 M particles (mirror copies
+# or a sub-cube of the image), and the bulk liquid of its mobile count.
+if [ "${RESOLUTION:-1}" = 1 ]; then
+for v in ${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}; do
+  $B/rockprep run .carry/rock/berea_100_to_300.npz --labels true=pore,false=solid \
+    --crop 0:50,0:50,0:50 --spacing 5.345,5.345,5.345 --unit um --layout permeability \
+    --threads $(nproc) --seed 7 --rc-per-voxel $v --out $W/R$v > $W/prepR.log 2>&1 || tail -3 $W/prepR.log
+  grep summary $W/prepR.log | sed "s/^/resolution $v /"
+  line=$($B/rockflow bench --backend cuda --case rock --solid $W/R$v/solid.h5 --particles 4450000 \
+    --steps 200 2>&1 | tail -1)
+  echo "resolution $v: $line"
+  m=$(echo "$line" | sed -n 's/.*, \([0-9]*\) mobile.*/\1/p')
+  [ -n "$m" ] && $B/rockflow bench --backend cuda --case bulk --particles $m --steps 200 2>&1 |
+    tail -1 | sed "s/^/resolution $v bulk: /"
+  rm -rf $W/R$v
 done
 fi
 echo done
