@@ -52,7 +52,7 @@ for round in $(seq ${ROUNDS:-2}); do
   for r in 05 085; do
     for bin in $bins; do
       $B/$bin run $W/S$r/scene.toml --backend cuda --out $W/run_${bin}_$r > $W/run.txt 2>&1
-      echo "run S$r $bin r$round rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"
+      echo "run S$r $bin r$round rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//'); T $(python3 -c "import json; print(json.load(open('$W/run_${bin}_$r/summary.json'))['final_temperature'])")"
     done
   done
   for bin in $bins; do
@@ -92,22 +92,37 @@ for p in double single; do
 done
 fi
 # What the resolution does to the fluid's share (docs/benchmarks.md, "The rock target and the
-# resolution"): rockprep's scene of the Berea 50^3 crop at several rc per voxel (it picks 0.85 for
-# the 100^3 crop), the bench's rock case from each solid.h5 at about 4.45 M particles (mirror copies
-# or a sub-cube of the image), and the bulk liquid of its mobile count.
+# resolution"): rockprep's scene of the Berea 50^3 crop at each rc per voxel in RESOLUTIONS (it
+# picks 0.85 for the 100^3 crop), the bench's rock case from each solid.h5 at about RES_PARTICLES
+# particles (mirror copies or a sub-cube of the image) beside the bulk liquid of its mobile count,
+# ROUNDS times; RES_RUN=1 also runs each scene as rockprep wrote it (`rockflow run`, double).
 if [ "${RESOLUTION:-1}" = 1 ]; then
 for v in ${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}; do
   $B/rockprep run .carry/rock/berea_100_to_300.npz --labels true=pore,false=solid \
     --crop 0:50,0:50,0:50 --spacing 5.345,5.345,5.345 --unit um --layout permeability \
     --threads $(nproc) --seed 7 --rc-per-voxel $v --out $W/R$v > $W/prepR.log 2>&1 || tail -3 $W/prepR.log
   grep summary $W/prepR.log | sed "s/^/resolution $v /"
-  line=$($B/rockflow bench --backend cuda --case rock --solid $W/R$v/solid.h5 --particles 4450000 \
-    --steps 200 2>&1 | tail -1)
-  echo "resolution $v: $line"
-  m=$(echo "$line" | sed -n 's/.*, \([0-9]*\) mobile.*/\1/p')
-  [ -n "$m" ] && $B/rockflow bench --backend cuda --case bulk --particles $m --steps 200 2>&1 |
-    tail -1 | sed "s/^/resolution $v bulk: /"
-  rm -rf $W/R$v
+done
+for round in $(seq ${ROUNDS:-2}); do
+  for v in ${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}; do
+    line=$($B/rockflow bench --backend cuda --case rock --solid $W/R$v/solid.h5 \
+      --particles ${RES_PARTICLES:-4450000} --steps 200 2>&1 | tail -1)
+    echo "resolution $v r$round: $line"
+    m=$(echo "$line" | sed -n 's/.*, \([0-9]*\) mobile.*/\1/p')
+    [ -n "$m" ] && $B/rockflow bench --backend cuda --case bulk --particles $m --steps 200 2>&1 |
+      tail -1 | sed "s/^/resolution $v r$round bulk: /"
+  done
+done
+for v in ${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}; do
+  if [ "${RES_RUN:-0}" = 1 ]; then
+    $B/rockflow run $W/R$v/scene.toml --backend cuda --out $W/runR > $W/run.txt 2>&1
+    echo "resolution $v run rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"
+    python3 -c "import json; s=json.load(open('$W/runR/summary.json')); print('resolution $v run: buried', s.get('buried_particles'), 'solid', s.get('solid',{}).get('invariant'), 'T', s['final_temperature'])"
+    m=$(python3 -c "import json; print(int(json.load(open('$W/runR/summary.json'))['mobile_particles']))")
+    $B/rockflow bench --backend cuda --case bulk --particles $m --steps 200 --precision double 2>&1 |
+      tail -1 | sed "s/^/resolution $v run's bulk: /"
+  fi
+  rm -rf $W/R$v $W/runR
 done
 fi
 echo done
