@@ -90,6 +90,24 @@ class DeviceBuffer {
 };
 
 constexpr int kBlock = 128;
+
+// Timing bounds, never results (scripts/gpu/rock_bounds.sh; docs/benchmarks.md, "What the frozen
+// particles' sums and the corrector cost"): builds with these definitions compute wrong physics on
+// purpose, to measure what a rock step would cost if a part of its work were free.
+// MESOROCK_BOUND_NO_FROZEN_SUMS: the pair passes visit the mobile part alone, so the frozen
+// particles' rho and phi miss their mobile neighbours. MESOROCK_BOUND_NO_CORRECTOR: no wall
+// correction.
+#ifdef MESOROCK_BOUND_NO_FROZEN_SUMS
+constexpr bool kBoundNoFrozenSums = true;
+#else
+constexpr bool kBoundNoFrozenSums = false;
+#endif
+#ifdef MESOROCK_BOUND_NO_CORRECTOR
+constexpr bool kBoundNoCorrector = true;
+#else
+constexpr bool kBoundNoCorrector = false;
+#endif
+
 // At least one block: kernels test i < n, and a rank of a decomposed run may hold no particle.
 inline int blocks_for(int n) {
   return n <= 0 ? 1 : (n + kBlock - 1) / kBlock;
@@ -1203,8 +1221,9 @@ class CudaEngine final : public Engine<Real>,
     lane_list_ready_ = false;
   }
   // The particles a step's pair passes visit: all but the buried part.
+  // (kBoundNoFrozenSums: the mobile part alone.)
   StepView<Real> stepping(StepView<Real> v) const {
-    v.n -= buried_count_;
+    v.n = kBoundNoFrozenSums && frozen_sums_valid_ ? mobile_count_ : v.n - buried_count_;
     return v;
   }
   // The lanes' neighbour list (LaneList) for L lanes of n particles, grown when it must be (the
@@ -1257,6 +1276,7 @@ class CudaEngine final : public Engine<Real>,
   static constexpr bool kCorrectsBeforeSort = true;
   bool frozen_part_ready() const { return frozen_sums_valid_; }
   void correct_against_frozen_part() {
+    if (kBoundNoCorrector) return;
     if (early_count_.size() == 0) {
       early_count_.resize(1);
       check(cudaMemset(early_count_.get(), 0, sizeof(unsigned long long)), "count reset");
