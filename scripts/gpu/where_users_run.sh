@@ -94,26 +94,38 @@ fi
 # What the resolution does to the fluid's share (docs/benchmarks.md, "The rock target and the
 # resolution"): rockprep's scene of the Berea 50^3 crop at each rc per voxel in RESOLUTIONS (it
 # picks 0.85 for the 100^3 crop), the bench's rock case from each solid.h5 at about RES_PARTICLES
-# particles (mirror copies or a sub-cube of the image) beside the bulk liquid of its mobile count,
-# ROUNDS times; RES_RUN=1 also runs each scene as rockprep wrote it (`rockflow run`, double).
+# particles (mirror copies or a sub-cube of the image) by each binary in RES_BINS, alternating,
+# beside the bulk liquid of its mobile count, ROUNDS times. RES_BINS may name timing-bound builds
+# (build_bundle.sh VARIANTS="bsums:-DMESOROCK_BOUND_NO_FROZEN_SUMS ...": wrong physics on purpose,
+# sim/cuda/engine_cuda.cu). RES_PROFILE=1 adds rockflow's per-pass profile of each; RES_RUN=1 runs
+# each scene as rockprep wrote it (`rockflow run`, double) beside the bulk liquid in double.
 if [ "${RESOLUTION:-1}" = 1 ]; then
-for v in ${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}; do
+resolutions=${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}
+rock_bench() {  # rock_bench BINARY RPV [bench options]
+  local bin=$1 v=$2
+  shift 2
+  $B/$bin bench --backend cuda --case rock --solid $W/R$v/solid.h5 \
+    --particles ${RES_PARTICLES:-4450000} --steps 200 "$@" 2>&1
+}
+for v in $resolutions; do
   $B/rockprep run .carry/rock/berea_100_to_300.npz --labels true=pore,false=solid \
     --crop 0:50,0:50,0:50 --spacing 5.345,5.345,5.345 --unit um --layout permeability \
     --threads $(nproc) --seed 7 --rc-per-voxel $v --out $W/R$v > $W/prepR.log 2>&1 || tail -3 $W/prepR.log
   grep summary $W/prepR.log | sed "s/^/resolution $v /"
 done
 for round in $(seq ${ROUNDS:-2}); do
-  for v in ${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}; do
-    line=$($B/rockflow bench --backend cuda --case rock --solid $W/R$v/solid.h5 \
-      --particles ${RES_PARTICLES:-4450000} --steps 200 2>&1 | tail -1)
-    echo "resolution $v r$round: $line"
+  for v in $resolutions; do
+    for bin in ${RES_BINS:-rockflow}; do
+      line=$(rock_bench $bin $v | tail -1)
+      echo "resolution $v $bin r$round: $line"
+    done
     m=$(echo "$line" | sed -n 's/.*, \([0-9]*\) mobile.*/\1/p')
     [ -n "$m" ] && $B/rockflow bench --backend cuda --case bulk --particles $m --steps 200 2>&1 |
       tail -1 | sed "s/^/resolution $v r$round bulk: /"
   done
 done
-for v in ${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}; do
+for v in $resolutions; do
+  [ "${RES_PROFILE:-0}" = 1 ] && rock_bench rockflow $v --profile | tail -1 | sed "s/^/resolution $v profile: /"
   if [ "${RES_RUN:-0}" = 1 ]; then
     $B/rockflow run $W/R$v/scene.toml --backend cuda --out $W/runR > $W/run.txt 2>&1
     echo "resolution $v run rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"

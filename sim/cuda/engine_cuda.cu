@@ -91,7 +91,7 @@ class DeviceBuffer {
 
 constexpr int kBlock = 128;
 
-// Timing bounds, never results (scripts/gpu/rock_bounds.sh; docs/benchmarks.md, "What the frozen
+// Timing bounds, never results (where_users_run.sh RES_BINS; docs/benchmarks.md, "What the frozen
 // particles' sums and the corrector cost"): builds with these definitions compute wrong physics on
 // purpose, to measure what a rock step would cost if a part of its work were free.
 // MESOROCK_BOUND_NO_FROZEN_SUMS: the pair passes visit the mobile part alone, so the frozen
