@@ -10,11 +10,11 @@ visits (4 pi / 3) 6.5 / 2 = 13.6 pairs per particle and step.
     python3 scripts/neighbour_composition.py SCENE_DIR [SCENE_DIR ...]
 
 SCENE_DIR is a `rockprep run --layout permeability` output folder (scene.toml, particles.h5 with
-type 0 the fluid). Needs numpy and h5py (scripts/setup.sh installs Debian's python3-h5py).
+type 0 the fluid). Needs Python 3.11 (tomllib), numpy and h5py (scripts/setup.sh installs Debian's python3-h5py).
 Samples 4,000 particles of each kind with a fixed seed.
 """
-import re
 import sys
+import tomllib
 
 import h5py
 import numpy as np
@@ -24,15 +24,9 @@ BULK_VISITS = 4 * np.pi / 3 * 6.5 / 2
 
 
 def box_of(scene_toml):
-    text = open(scene_toml).read()
-
-    def vec(name):
-        m = re.search(r"^" + name + r" = \[([^\]]*)\]", text, re.M)
-        if not m:
-            sys.exit(f"{scene_toml}: no box {name}")
-        return np.array([float(x) for x in m.group(1).split(",")])
-
-    return vec("lo"), vec("hi")
+    with open(scene_toml, "rb") as f:
+        box = tomllib.load(f)["box"]
+    return np.array(box["lo"], dtype=float), np.array(box["hi"], dtype=float)
 
 
 class CellList:
