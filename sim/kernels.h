@@ -23,6 +23,7 @@
 #include "sim/injection.h"
 #include "sim/observables.h"
 #include "sim/pair_terms.h"
+#include "sim/penetration_mask.h"
 #include "sim/rigid_slabs.h"
 #include "sim/rng.h"
 #include "sim/solid_grid.h"
@@ -96,6 +97,10 @@ struct StepView {
   // out at 100 rc per time unit). The grid keeps both out of the solid. docs/walls.md, "One turn
   // per step". Null otherwise.
   std::uint8_t* left_to_grid = nullptr;
+  // Where the frozen part alone may put a mobile particle inside the wall (phi > phi_c): the
+  // GPU's corrector before the sort scans only there (sim/penetration_mask.h). Set only while
+  // the frozen part's sums hold; none elsewhere (every particle is scanned).
+  PenetrationMask<Real> penetration;
   RigidSlabs<Real> slabs;  // pistons moving as rigid bodies (sim/rigid_slabs.h)
 
   Real rd = Real(0.75);
@@ -424,6 +429,89 @@ MESO_HD MESO_INLINE Real wall_fraction(const StepView<Real>& v, int i, Parts par
   Real rho = 0, wall = 0;
   add_density_and_wall<Real, void>(v, i, parts, rho, wall);
   return wall * v.walls.inv_wall_density;
+}
+
+// Word w of the penetration mask m (sim/penetration_mask.h) from the wall particles of the
+// frozen part: bit k set where the bound of phi over the word's k-th cell (along x) passes
+// phi_c - PenetrationMask::kPhiMargin. One word per thread: no atomics, the same bits every run.
+// The cell-list cells that can hold a wall particle within rc of the word's cells are scanned,
+// each with its image shift; a periodic axis shorter than the scan visits some cells twice, which
+// only raises the bound.
+template <class Real>
+MESO_HD std::uint32_t penetration_mask_word(const StepView<Real>& v, const PenetrationMask<Real>& m,
+                                            std::size_t w) {
+  constexpr int K = PenetrationMask<Real>::kCellsPerWord;
+  const Real margin = Real(PenetrationMask<Real>::kRoundingMargin);
+  const std::size_t words_x = static_cast<std::size_t>(m.dims[0] / K);
+  const int first_cell[3] = {static_cast<int>(w % words_x) * K,
+                             static_cast<int>((w / words_x) % static_cast<std::size_t>(m.dims[1])),
+                             static_cast<int>(w / words_x / static_cast<std::size_t>(m.dims[1]))};
+  const int cells[3] = {K, 1, 1};
+  Real lo[3], hi[3];  // the word's cells together, widened by the margin
+  int first[3], last[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = m.lo[a] + Real(first_cell[a]) * m.cell[a] - margin;
+    hi[a] = m.lo[a] + Real(first_cell[a] + cells[a]) * m.cell[a] + margin;
+    auto floor_cell = [&](Real p) {
+      const Real u = (p - v.box.lo[a]) * v.grid.inv_cell[a];
+      const int k = static_cast<int>(u);
+      return Real(k) > u ? k - 1 : k;
+    };
+    first[a] = floor_cell(lo[a] - Real(1));
+    last[a] = floor_cell(hi[a] + Real(1));
+    if (!v.box.periodic[a]) {  // positions beyond a wall face are filed in the edge cells
+      first[a] = first[a] < 0 ? 0 : (first[a] >= v.grid.dims[a] ? v.grid.dims[a] - 1 : first[a]);
+      last[a] = last[a] < 0 ? 0 : (last[a] >= v.grid.dims[a] ? v.grid.dims[a] - 1 : last[a]);
+    }
+  }
+  Real sum[K];
+  MESO_UNROLL
+  for (int k = 0; k < K; ++k) sum[k] = Real(0);
+  const int part = v.frozen_part > 0 ? v.frozen_part : 0;  // the frozen part, or everything
+  auto wrap = [&](int k, int a, Real& shift) {
+    const int n = v.grid.dims[a];
+    int q = k / n;
+    if (q * n > k) --q;
+    shift = Real(q) * v.box.length[a];
+    return k - q * n;
+  };
+  auto outside = [](Real p, Real lo_edge, Real hi_edge) {
+    return p < lo_edge ? lo_edge - p : (p > hi_edge ? p - hi_edge : Real(0));
+  };
+  for (int kz = first[2]; kz <= last[2]; ++kz) {
+    Real sz;
+    const int cz = wrap(kz, 2, sz);
+    for (int ky = first[1]; ky <= last[1]; ++ky) {
+      Real sy;
+      const int cy = wrap(ky, 1, sy);
+      for (int kx = first[0]; kx <= last[0]; ++kx) {
+        Real sx;
+        const int c = v.grid.index(wrap(kx, 0, sx), cy, cz);
+        for (int j = v.cell_start[part + c]; j < v.cell_start[part + c + 1]; ++j) {
+          if (!v.walls.is_wall(v.type[j])) continue;
+          const Real dy = outside(v.y[j] + sy, lo[1], hi[1]);
+          const Real dz = outside(v.z[j] + sz, lo[2], hi[2]);
+          const Real r2_yz = dy * dy + dz * dz;
+          if (!(r2_yz < Real(1))) continue;
+          const Real xj = v.x[j] + sx;
+          MESO_UNROLL
+          for (int k = 0; k < K; ++k) {
+            const Real cell_lo = lo[0] + Real(k) * m.cell[0];
+            const Real dx = outside(xj, cell_lo, cell_lo + m.cell[0] + 2 * margin);
+            const Real r2 = dx * dx + r2_yz;
+            if (r2 < Real(1)) sum[k] += bvf_weight(real_sqrt(r2));
+          }
+        }
+      }
+    }
+  }
+  const Real threshold =
+      (v.walls.phi_c - Real(PenetrationMask<Real>::kPhiMargin)) / v.walls.inv_wall_density;
+  std::uint32_t bits = 0;
+  MESO_UNROLL
+  for (int k = 0; k < K; ++k)
+    if (sum[k] > threshold) bits |= 1u << k;
+  return bits;
 }
 
 // The corrector of the wall model for particle i after the drift (the predictor): a mobile

@@ -97,10 +97,13 @@ fi
 # particles (mirror copies or a sub-cube of the image) by each binary in RES_BINS, alternating,
 # beside the bulk liquid of its mobile count, ROUNDS times. RES_BINS may name timing-bound builds
 # (build_bundle.sh VARIANTS="bsums:-DMESOROCK_BOUND_NO_FROZEN_SUMS ...": wrong physics on purpose,
-# sim/cuda/engine_cuda.cu). RES_PROFILE=1 adds rockflow's per-pass profile of each; RES_RUN=1 runs
+# sim/cuda/engine_cuda.cu). RES_SWITCHES runs each binary once per set of bench switches, the sets
+# separated by ";" (RES_SWITCHES="--penetration-mask on;--penetration-mask off"). RES_PROFILE=1 adds rockflow's per-pass profile of each; RES_RUN=1 runs
 # each scene as rockprep wrote it (`rockflow run`, double) beside the bulk liquid in double.
 if [ "${RESOLUTION:-1}" = 1 ]; then
 resolutions=${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}
+IFS=';' read -ra sets <<< "${RES_SWITCHES:-}"
+[ ${#sets[@]} = 0 ] && sets=("")
 rock_bench() {  # rock_bench BINARY RPV [bench options]
   local bin=$1 v=$2
   shift 2
@@ -116,8 +119,10 @@ done
 for round in $(seq ${ROUNDS:-2}); do
   for v in $resolutions; do
     for bin in ${RES_BINS:-rockflow}; do
-      line=$(rock_bench $bin $v | tail -1)
-      echo "resolution $v $bin r$round: $line"
+      for set in "${sets[@]}"; do
+        line=$(rock_bench $bin $v $set | tail -1)
+        echo "resolution $v $bin${set:+ $set} r$round: $line"
+      done
     done
     m=$(echo "$line" | sed -n 's/.*, \([0-9]*\) mobile.*/\1/p')
     [ -n "$m" ] && $B/rockflow bench --backend cuda --case bulk --particles $m --steps 200 2>&1 |
@@ -125,7 +130,11 @@ for round in $(seq ${ROUNDS:-2}); do
   done
 done
 for v in $resolutions; do
-  [ "${RES_PROFILE:-0}" = 1 ] && rock_bench rockflow $v --profile | tail -1 | sed "s/^/resolution $v profile: /"
+  if [ "${RES_PROFILE:-0}" = 1 ]; then
+    for set in "${sets[@]}"; do
+      rock_bench rockflow $v $set --profile | tail -1 | sed "s/^/resolution $v${set:+ $set} profile: /"
+    done
+  fi
   if [ "${RES_RUN:-0}" = 1 ]; then
     $B/rockflow run $W/R$v/scene.toml --backend cuda --out $W/runR > $W/run.txt 2>&1
     echo "resolution $v run rc=$?: $(grep 'done:' $W/run.txt | sed 's/; outputs in.*//')"

@@ -3,6 +3,7 @@
 // (only with a many-body term); forces; kick. Nothing crosses to the host unless an output asks.
 #include <cuda_runtime.h>
 
+#include <thrust/iterator/counting_iterator.h>
 #include <algorithm>
 #include <array>
 #include <cstring>
@@ -90,6 +91,10 @@ class DeviceBuffer {
 };
 
 constexpr int kBlock = 128;
+// The penetration mask's cells (StepView::penetration): rc / 8 or more, at most 2^28 of them
+// (32 MiB of bits).
+constexpr double kPenetrationCell = 0.125;
+constexpr double kPenetrationCells = double(1 << 28);
 
 // Timing bounds, never results (where_users_run.sh RES_BINS; docs/benchmarks.md, "What the frozen
 // particles' sums and the corrector cost"): builds with these definitions compute wrong physics on
@@ -342,16 +347,55 @@ __global__ void correction_kernel(StepView<Real> v, unsigned int* count) {
 // The corrector before the sort (sim/stepper.h correct_before_sort): phi and the wall normal at
 // the predicted position from the frozen part alone, whose cell list holds while the mobile
 // part's is a step old. Only wall particles are read, and none is written.
+// Which particles need phi: not frozen, not left to the solid grid (which needs no phi), and
+// where the frozen part may put phi past phi_c (StepView::penetration; true without a mask).
+template <class Real>
+__device__ bool needs_frozen_phi(const StepView<Real>& v, int i) {
+  return !v.frozen(i) && !v.left_to_grid_at(i) && v.penetration.may_exceed(v.x[i], v.y[i], v.z[i]);
+}
 template <class Real, bool kVelocityEstimate>
-__global__ void correction_before_sort_kernel(StepView<Real> v, unsigned long long* count) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  // A particle left to the solid grid needs no phi: the scan is skipped.
-  if (i >= v.n || v.frozen(i) || v.left_to_grid_at(i)) return;
+__device__ void correct_against_frozen(const StepView<Real>& v, int i, unsigned long long* count) {
   Real dv[3];
   if (penetration_correction(v, i, wall_fraction(v, i, Parts::FrozenOnly), dv, Parts::FrozenOnly)) {
     apply_penetration_correction<Real, kVelocityEstimate>(v, i, dv);
     atomicAdd(count, 1ull);
   }
+}
+// Every particle (no penetration mask).
+template <class Real, bool kVelocityEstimate>
+__global__ void correction_before_sort_kernel(StepView<Real> v, unsigned long long* count) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < v.n && needs_frozen_phi(v, i))
+    correct_against_frozen<Real, kVelocityEstimate>(v, i, count);
+}
+// needs_frozen_phi as flags, for the selection of correction_listed_kernel. (A CUB selection
+// with the predicate holding the StepView was as slow as the scans it saved: the view, some 600
+// bytes, is likely copied per thread.)
+template <class Real>
+__global__ void needs_frozen_phi_kernel(StepView<Real> v, int m, unsigned char* flag) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < m) flag[i] = needs_frozen_phi(v, i);
+}
+// The particles a selection listed (needs_frozen_phi; *listed of them): a warp's lanes all scan.
+// Why not skip in place: the fluid is sorted by cell, and a warp of neighbours nearly always has
+// a lane near the wall, which held the whole warp (the mask alone saved 14% of the corrector's
+// time at 0.5 rc per voxel, docs/benchmarks.md).
+// `listed_total` (profiling; else null) adds up the listed counts.
+template <class Real, bool kVelocityEstimate>
+__global__ void correction_listed_kernel(StepView<Real> v, const int* list, const int* listed,
+                                         unsigned long long* count,
+                                         unsigned long long* listed_total) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t == 0 && listed_total) *listed_total += static_cast<unsigned long long>(*listed);
+  if (t < *listed) correct_against_frozen<Real, kVelocityEstimate>(v, list[t], count);
+}
+
+// The penetration mask's words (sim/penetration_mask.h), one per thread.
+template <class Real>
+__global__ void penetration_mask_kernel(StepView<Real> v, PenetrationMask<Real> m,
+                                        std::uint32_t* bits) {
+  const std::size_t w = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (w < m.words()) bits[w] = penetration_mask_word(v, m, w);
 }
 
 // The buried particles' rho and phi (StepView::buried_part): their static sums, with no mobile
@@ -773,7 +817,8 @@ class CudaEngine final : public Engine<Real>,
         frozen_part_(o.frozen_part),
         burying_(o.buried_part),
         graphs_(o.graphs),
-        lanes_(o.lanes) {
+        lanes_(o.lanes),
+        masking_(o.penetration_mask) {
     check(cudaSetDevice(device_), "cudaSetDevice");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
@@ -1169,6 +1214,10 @@ class CudaEngine final : public Engine<Real>,
     if (frozen_sums_valid_) {
       v.frozen_rho = frozen_rho_.size() > 0 ? frozen_rho_.get() : nullptr;
       v.frozen_bvf = frozen_bvf_.size() > 0 ? frozen_bvf_.get() : nullptr;
+      if (penetration_built_) {
+        v.penetration = penetration_;
+        v.penetration.bits = penetration_bits_.get();
+      }
     }
     v.table = table_.get();
     v.body_force = body_force_.get();
@@ -1282,8 +1331,28 @@ class CudaEngine final : public Engine<Real>,
       check(cudaMemset(early_count_.get(), 0, sizeof(unsigned long long)), "count reset");
     }
     ++early_steps_;
-    correction_before_sort_kernel<Real, T::enabled>
-        <<<blocks_for(n_), kBlock>>>(view(), early_count_.get());
+    const StepView<Real> v = view();
+    if (!penetration_built_) {
+      correction_before_sort_kernel<Real, T::enabled>
+          <<<blocks_for(n_), kBlock>>>(v, early_count_.get());
+      return;
+    }
+    needs_frozen_phi_kernel<<<blocks_for(mobile_count_), kBlock>>>(v, mobile_count_,
+                                                                   penetration_flag_.get());
+    size_t bytes = penetration_temp_.size();
+    check(cub::DeviceSelect::Flagged(penetration_temp_.get(), bytes,
+                                     thrust::counting_iterator<int>(0), penetration_flag_.get(),
+                                     penetration_list_.get(), penetration_listed_.get(),
+                                     mobile_count_),
+          "penetration selection");
+    if (profile_ && listed_total_.size() == 0) {
+      listed_total_.resize(1);
+      check(cudaMemset(listed_total_.get(), 0, sizeof(unsigned long long)), "listed reset");
+    }
+    correction_listed_kernel<Real, T::enabled><<<blocks_for(mobile_count_), kBlock>>>(
+        v, penetration_list_.get(), penetration_listed_.get(), early_count_.get(),
+        profile_ ? listed_total_.get() : nullptr);
+    listed_steps_ += profile_;
   }
 
   // Reorder interval only: the positions at the last sort, and whether any particle has moved
@@ -1421,10 +1490,59 @@ class CudaEngine final : public Engine<Real>,
           <<<blocks_for(n_), kBlock>>>(view(), frozen_rho_.get(), frozen_bvf_.get());
     }
     frozen_sums_valid_ = true;
+    if constexpr (W::enabled) update_penetration_mask(frozen > 0);
     if constexpr (C::needs_density || W::enabled)
       if (buried_count_ > 0)
         buried_sums_kernel<<<blocks_for(buried_count_), kBlock>>>(view(), n_ - buried_count_,
                                                                   typename Steps::Sums{});
+  }
+
+  // The penetration mask (StepView::penetration) of the frozen part just sorted: cells of
+  // kPenetrationCell rc or more, at most kPenetrationCells of them.
+  void update_penetration_mask(bool any_frozen) {
+    penetration_built_ = false;
+    // A decomposed run sorts its frozen part anew after every exchange: no mask to rebuild each
+    // time.
+    if (!masking_ || !any_frozen || this->hooks().distributed()) return;
+    const Box<Real>& box = host_->box;
+    penetration_ =
+        penetration_mask_geometry<Real>(box.lo, box.length, kPenetrationCell, kPenetrationCells);
+    const std::size_t words = penetration_.words();
+    penetration_bits_.set_size(words);
+    const std::size_t blocks = (words + kBlock - 1) / kBlock;
+    penetration_mask_kernel<<<static_cast<unsigned int>(blocks), kBlock>>>(view(), penetration_,
+                                                                           penetration_bits_.get());
+    check(cudaGetLastError(), "penetration mask");
+    // The selection's list and scratch, sized here: a captured step may not allocate.
+    const size_t m = static_cast<size_t>(mobile_count_ > 0 ? mobile_count_ : 1);
+    penetration_list_.set_size(m);
+    penetration_flag_.set_size(m);
+    penetration_listed_.set_size(1);
+    size_t bytes = 0;
+    check(cub::DeviceSelect::Flagged(nullptr, bytes, thrust::counting_iterator<int>(0),
+                                     penetration_flag_.get(), penetration_list_.get(),
+                                     penetration_listed_.get(), mobile_count_),
+          "penetration selection sizing");
+    penetration_temp_.set_size(bytes > 0 ? bytes : 1);
+    penetration_built_ = true;
+  }
+  // The mobile particles the corrector scanned, as a share of the mobile part (profiling).
+  double listed_share() const {
+    if (listed_steps_ == 0 || mobile_count_ == 0) return 0;
+    std::vector<unsigned long long> total;
+    listed_total_.download(total);
+    return static_cast<double>(total[0]) / static_cast<double>(listed_steps_) / mobile_count_;
+  }
+  // The share of the mask's cells inside the box that are set (profiling).
+  double penetration_share() const {
+    std::vector<std::uint32_t> bits;
+    penetration_bits_.download(bits);
+    std::size_t set = 0;
+    for (std::uint32_t w : bits) set += static_cast<std::size_t>(__builtin_popcount(w));
+    double in_box = 1;
+    for (int a = 0; a < 3; ++a)
+      in_box *= std::ceil(static_cast<double>(host_->box.length[a]) * penetration_.inv_cell[a]);
+    return static_cast<double>(set) / in_box;
   }
 
   // Whether a full sort may bury (StepView::buried_part; HostState::may_bury): with the frozen
@@ -1650,6 +1768,9 @@ class CudaEngine final : public Engine<Real>,
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
       b += a->size() * sizeof(std::int32_t);
     b += (id_.size() + id_alt_.size()) * sizeof(std::int64_t);
+    b += penetration_bits_.size() * sizeof(std::uint32_t) + penetration_temp_.size() +
+         penetration_flag_.size() +
+         (penetration_list_.size() + penetration_listed_.size()) * sizeof(int);
     for (const DeviceBuffer<int>* a : {&cell_, &cell_slots_, &index_, &perm_, &cell_start_,
                                        &cell_count_, &lane_list_slots_, &lane_list_counts_})
       b += a->size() * sizeof(int);
@@ -1715,7 +1836,9 @@ class CudaEngine final : public Engine<Real>,
       add(*a);
     add(sort_temp_), add(table_), add(solid_), add(slab_bodies_), add(slab_partials_);
     add(left_to_grid_), add(left_to_grid_alt_);
-    add(early_count_), add(watchdog_record_), add(step_base_);
+    add(early_count_), add(watchdog_record_), add(step_base_), add(penetration_bits_);
+    add(penetration_list_), add(penetration_listed_), add(penetration_flag_),
+        add(penetration_temp_);
     double dt = static_cast<double>(dt_);
     std::uint64_t dt_bits = 0;
     std::memcpy(&dt_bits, &dt, sizeof dt_bits);
@@ -1831,6 +1954,10 @@ class CudaEngine final : public Engine<Real>,
         << late_steps_;
     if (split_frozen())
       s << "; cell sorts: " << full_sorts_ << " full, " << mobile_sorts_ << " of the mobile part";
+    if (penetration_built_)
+      s << "; penetration mask: cells of " << penetration_.cell[0] << " rc, "
+        << 100 * penetration_share() << "% set, " << 100 * listed_share()
+        << "% of the mobile particles scanned";
     return s.str();
   }
 
@@ -1909,6 +2036,19 @@ class CudaEngine final : public Engine<Real>,
   bool frozen_sums_valid_ = false;
   DeviceBuffer<Real> frozen_rho_,
       frozen_bvf_;  // the corrector moved a particle; no sums since (profiling)
+  // Wall model with a frozen part: the penetration mask (StepView::penetration) of the frozen
+  // part's last full sort; masking_: SimulationOptions::penetration_mask.
+  bool masking_ = true;
+  bool penetration_built_ = false;
+  PenetrationMask<Real> penetration_;
+  DeviceBuffer<std::uint32_t> penetration_bits_;
+  // The corrector's selection (needs_frozen_phi): the flags, the listed particles, their count,
+  // CUB's scratch.
+  DeviceBuffer<int> penetration_list_, penetration_listed_;
+  DeviceBuffer<unsigned char> penetration_flag_, penetration_temp_;
+  // Profiling: the listed particles summed over listed_steps_ steps.
+  DeviceBuffer<unsigned long long> listed_total_;
+  std::uint64_t listed_steps_ = 0;
   std::uint64_t profiled_steps_ = 0;
   DeviceBuffer<WatchdogRecord> watchdog_record_;  // allocated at the first checked step
   WatchdogRecord* watchdog_host_ = nullptr;       // pinned

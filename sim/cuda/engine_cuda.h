@@ -16,6 +16,7 @@ struct CudaEngineOptions {
   bool buried_part = true;
   bool graphs = true;
   int lanes = 0;
+  bool penetration_mask = true;
 };
 
 template <class Real>
