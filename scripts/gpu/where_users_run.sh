@@ -100,6 +100,9 @@ fi
 # sim/cuda/engine_cuda.cu). RES_SWITCHES runs each binary once per set of bench switches, the sets
 # separated by ";" (RES_SWITCHES="--penetration-mask on;--penetration-mask off"). RES_PROFILE=1 adds rockflow's per-pass profile of each; RES_RUN=1 runs
 # each scene as rockprep wrote it (`rockflow run`, double) beside the bulk liquid in double.
+# RES_SWEEP lists resolutions (among RESOLUTIONS) to sweep as docs/accuracy.md's resolution rows
+# do: g = 0.04 / (rc per voxel)^2, a warm-up of 2,000 (rc per voxel)^2 steps or 2,000, blocks of
+# 1,000 steps, 10 measured.
 if [ "${RESOLUTION:-1}" = 1 ]; then
 resolutions=${RESOLUTIONS:-0.5 0.85 1.2 1.6 2.0}
 IFS=';' read -ra sets <<< "${RES_SWITCHES:-}"
@@ -143,7 +146,16 @@ for v in $resolutions; do
     $B/rockflow bench --backend cuda --case bulk --particles $m --steps 200 --precision double 2>&1 |
       tail -1 | sed "s/^/resolution $v run's bulk: /"
   fi
-  rm -rf $W/R$v $W/runR
+  if [[ " ${RES_SWEEP:-} " == *" $v "* ]]; then
+    read -r g warm < <(python3 -c "print(round(0.04 / $v ** 2, 4), max(2000, round(2000 * $v ** 2)))")
+    t=$(date +%s.%N)
+    $B/rockflow sweep $W/R$v/scene.toml --backend cuda --out $W/sweepR --forces $g \
+      --viscosity 6.111 --viscosity-error 0.041 --warmup $warm --block-steps 1000 --window 2 \
+      --measure-blocks 10 > $W/sweep.txt 2>&1
+    echo "resolution $v sweep g=$g warm-up $warm rc=$? $(python3 -c "print(round($(date +%s.%N) - $t, 1))") s: $(grep -E 'k = ' $W/sweep.txt | tail -1)"
+    python3 -c "import json; s=json.load(open('$W/sweepR/sweep.json')); print('resolution $v sweep solid', s.get('solid'))" 2>&1 | tail -1
+  fi
+  rm -rf $W/R$v $W/runR $W/sweepR
 done
 fi
 echo done

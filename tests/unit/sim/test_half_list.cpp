@@ -16,6 +16,7 @@
 #include "sim/state.h"
 #include "sim/stepper.h"
 #include "sim/terms.h"
+#include "unit/sim/wall_scene.h"
 
 namespace ms = mesorock::sim;
 
@@ -231,18 +232,8 @@ struct SplitSystem : System {
   bool sums_kept = false;
 
   explicit SplitSystem(const Case& c) : System(c) {
+    mesorock::test::split_by_cell(s, 1);
     const int n = s.size(), cells = s.grid.count();
-    std::vector<int> key(n), order(n);
-    for (int i = 0; i < n; ++i) key[i] = ms::cell_of(s.view(), i) + (s.type[i] == 1 ? cells : 0);
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return key[a] < key[b]; });
-    s.for_each_particle_array([&](auto& v) {
-      auto copy = v;
-      for (int k = 0; k < n; ++k) v[k] = copy[order[k]];
-    });
-    s.cell_start.assign(2 * cells + 1, 0);
-    for (int k : key) ++s.cell_start[k + 1];
-    for (int k = 0; k < 2 * cells; ++k) s.cell_start[k + 1] += s.cell_start[k];
     const int start = s.cell_start[cells];
     frozen_rho.assign(n - start, 0);
     frozen_bvf.assign(n - start, 0);
