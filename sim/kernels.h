@@ -320,64 +320,28 @@ MESO_HD MESO_INLINE constexpr Real coincident_r2() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// What a density pass does with each pair's weight besides adding it to rho_i. NoScatter, the
-// default: nothing (compiles to nothing). FrozenDensityScatter, the GPU's pass over the mobile
-// part alone once the frozen part's static sums hold: the weight of a frozen neighbour j is also
-// added to j's sum, so that no frozen particle scans its mobile neighbours (a fluid-wall pair was
-// visited from both sides; docs/benchmarks.md, "The walls' sums"). The sum is fixed point, in
-// units of 2^-44, with integer atomics: the same bits whatever order the threads run in (float
-// atomics would make runs differ). At 2^-44 a term rounds by under 3e-14, below float's and, for
-// a rho of order 10, near double's own; 2^20 units of rho fit in 64 bits.
-constexpr double kFixedDensityScale = 17592186044416.0;  // 2^44
-struct NoScatter {
-  template <class Real>
-  MESO_HD MESO_INLINE void operator()(int, Real) const {}
-};
-template <class Real>
-struct FrozenDensityScatter {
-  unsigned long long* fixed_rho = nullptr;  // the k-th frozen particle's at k
-  int first_frozen = 0;                     // StepView::frozen_index's origin
-  MESO_HD MESO_INLINE void operator()(int j, Real w) const {
-    if (j < first_frozen) return;
-    const auto units =
-        static_cast<unsigned long long>(static_cast<double>(w) * kFixedDensityScale + 0.5);
-#ifdef __CUDA_ARCH__
-    atomicAdd(fixed_rho + (j - first_frozen), units);
-#else
-    fixed_rho[j - first_frozen] += units;  // the CPU's tests run it on one thread
-#endif
-  }
-};
-
-// ---------------------------------------------------------------------------------------------
 // Density pass: rho_i = sum_{j != i} w(r_ij). Frozen particles need it too (their rho enters the
 // many-body force on the fluid). With the frozen particles' static sums (StepView::frozen_rho),
 // a frozen particle adds only its mobile neighbours to them.
-template <class Real, class DensityKernel, class Lanes = OneLane, class Scatter = NoScatter>
+template <class Real, class DensityKernel, class Lanes = OneLane>
 MESO_HD MESO_INLINE void add_density(const StepView<Real>& v, int i, Parts parts, Real& rho,
-                                     const Lanes& lanes = Lanes{},
-                                     const Scatter& scatter = Scatter{}) {
+                                     const Lanes& lanes = Lanes{}) {
   // In place, not stashed: this body is cheap, and the stash measured slower here (H200, porous
   // 16 M: 7.8 ms per pass with it, 6.7 without; docs/benchmarks.md).
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
   for_each_neighbour(
       v, i,
-      [&](int j, Real, Real, Real, Real r2) {
-        if (r2 < rd2) {
-          const Real w = DensityKernel::weight(real_sqrt(r2), rd);
-          rho += w;
-          scatter(j, w);
-        }
+      [&](int, Real, Real, Real, Real r2) {
+        if (r2 < rd2) rho += DensityKernel::weight(real_sqrt(r2), rd);
       },
       parts, lanes);
 }
 
 // (Lanes: see OneLane. The kept sums start the leader's share, so they count once.)
-template <class Real, class DensityKernel, class Lanes = OneLane, class Scatter = NoScatter>
+template <class Real, class DensityKernel, class Lanes = OneLane>
 MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i,
-                                             const Lanes& lanes = Lanes{},
-                                             const Scatter& scatter = Scatter{}) {
+                                             const Lanes& lanes = Lanes{}) {
   if (v.ghost(i)) return;  // a ghost's density comes from its owner
   Real rho = 0;
   Parts parts = Parts::All;
@@ -385,7 +349,7 @@ MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i,
     if (lanes.leader()) rho = v.frozen_rho[v.frozen_index(i)];
     parts = Parts::MobileOnly;
   }
-  add_density<Real, DensityKernel>(v, i, parts, rho, lanes, scatter);
+  add_density<Real, DensityKernel>(v, i, parts, rho, lanes);
   rho = lanes.sum(rho);
   if (lanes.leader()) v.rho[i] = rho;
 }
@@ -394,10 +358,9 @@ MESO_HD MESO_INLINE void density_of_particle(const StepView<Real>& v, int i,
 // neighbours in `parts`, added to rho and wall:
 //   phi_i = (1 / n_w) sum_{j in wall} W(r_ij),  W the Lucy kernel of support rc,
 // for particles that are not wall themselves.
-template <class Real, class DensityKernel, class Lanes = OneLane, class Scatter = NoScatter>
+template <class Real, class DensityKernel, class Lanes = OneLane>
 MESO_HD MESO_INLINE void add_density_and_wall(const StepView<Real>& v, int i, Parts parts,
-                                              Real& rho, Real& wall, const Lanes& lanes = Lanes{},
-                                              const Scatter& scatter = Scatter{}) {
+                                              Real& rho, Real& wall, const Lanes& lanes = Lanes{}) {
   constexpr bool kDensity = !std::is_void<DensityKernel>::value;
   const Real rd = v.rd;
   const Real rd2 = rd * rd;
@@ -407,11 +370,7 @@ MESO_HD MESO_INLINE void add_density_and_wall(const StepView<Real>& v, int i, Pa
       [&](int j, Real, Real, Real, Real r2) {
         const Real r = real_sqrt(r2);
         if constexpr (kDensity) {
-          if (r2 < rd2) {
-            const Real w = DensityKernel::weight(r, rd);
-            rho += w;
-            scatter(j, w);
-          }
+          if (r2 < rd2) rho += DensityKernel::weight(r, rd);
         }
         if (fluid && v.walls.is_wall(v.type[j])) wall += bvf_weight(r);
       },
@@ -420,10 +379,9 @@ MESO_HD MESO_INLINE void add_density_and_wall(const StepView<Real>& v, int i, Pa
 
 // Density and the boundary volume fraction of the wall model (sim/wall_model.h) in one neighbour
 // loop (phi = 0 for wall particles).
-template <class Real, class DensityKernel, class Lanes = OneLane, class Scatter = NoScatter>
+template <class Real, class DensityKernel, class Lanes = OneLane>
 MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, int i,
-                                                     const Lanes& lanes = Lanes{},
-                                                     const Scatter& scatter = Scatter{}) {
+                                                     const Lanes& lanes = Lanes{}) {
   constexpr bool kDensity = !std::is_void<DensityKernel>::value;
   if (v.ghost(i)) return;  // a ghost's sums come from its owner
   Real rho = 0, wall = 0;
@@ -436,29 +394,12 @@ MESO_HD MESO_INLINE void density_and_bvf_of_particle(const StepView<Real>& v, in
     }
     parts = Parts::MobileOnly;
   }
-  add_density_and_wall<Real, DensityKernel>(v, i, parts, rho, wall, lanes, scatter);
+  add_density_and_wall<Real, DensityKernel>(v, i, parts, rho, wall, lanes);
   if constexpr (kDensity) rho = lanes.sum(rho);
   wall = lanes.sum(wall);
   if (!lanes.leader()) return;
   if constexpr (kDensity) v.rho[i] = rho;
   v.bvf[i] = v.walls.is_wall(v.type[i]) ? Real(0) : wall * v.walls.inv_wall_density;
-}
-
-// Frozen particle i after a scattering density pass over the mobile part (FrozenDensityScatter):
-// rho its static sum plus what its mobile neighbours scattered into fixed_rho (then zeroed for the
-// next pass); phi its static sum (the wall particles are all frozen, so no mobile neighbour adds
-// to it), as density_and_bvf_of_particle gives it.
-template <class Real, bool kDensity, bool kWalls>
-MESO_HD MESO_INLINE void finish_scattered_sums(const StepView<Real>& v, int i,
-                                               unsigned long long* fixed_rho) {
-  const int k = v.frozen_index(i);
-  if constexpr (kDensity) {
-    v.rho[i] = static_cast<Real>(static_cast<double>(v.frozen_rho[k]) +
-                                 static_cast<double>(fixed_rho[k]) / kFixedDensityScale);
-    fixed_rho[k] = 0;
-  }
-  if constexpr (kWalls)
-    v.bvf[i] = v.walls.is_wall(v.type[i]) ? Real(0) : v.frozen_bvf[k] * v.walls.inv_wall_density;
 }
 
 // Whether particle i belongs in the buried part (StepView::buried_part): frozen, with no pore

@@ -46,13 +46,6 @@ struct SimulationOptions {
   // rc / 8). Every bit of the result is the same; off only to measure what it saves
   // (`rockflow bench --penetration-mask off`).
   bool penetration_mask = true;
-  // CUDA backend, with the frozen part's static sums on one rank: the density pass visits the
-  // mobile particles alone, each adding its weight to its frozen neighbours' sums (fixed point,
-  // integer atomics: the same bits every run), instead of each frozen particle scanning its mobile
-  // neighbours (FrozenDensityScatter, sim/kernels.h). The frozen particles' rho round differently
-  // (results at round-off), nothing else; off only to measure what it saves
-  // (`rockflow bench --frozen-scatter off`).
-  bool frozen_scatter = true;
   // CUDA backend: runs of steps captured once as a CUDA graph and replayed (ARCHITECTURE.md), so
   // a small system is not bound by kernel launches. Every bit of the result is the same; off only
   // to measure what it saves (`rockflow bench --graphs off`). Runs with a reorder interval,

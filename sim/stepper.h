@@ -85,18 +85,15 @@ struct KickPass {
 // without a many-body term: phi alone. Frozen pairs count (a frozen particle's rho enters the
 // force on its mobile neighbours).
 // (The gathers take the lanes that share particle i's scan: OneLane, or the GPU's LaneGroup.)
-// Scatter: NoScatter, or the GPU's FrozenDensityScatter (sim/kernels.h), which the per-particle
-// form alone takes.
-template <class Real, class DensityKernel, bool kWalls, class Scatter = NoScatter>
+template <class Real, class DensityKernel, bool kWalls>
 struct SumsPass {
-  Scatter scatter{};
   template <class Lanes = OneLane>
   MESO_HD MESO_INLINE void operator()(const StepView<Real>& v, int i,
                                       const Lanes& lanes = Lanes{}) const {
     if constexpr (kWalls)
-      density_and_bvf_of_particle<Real, DensityKernel>(v, i, lanes, scatter);
+      density_and_bvf_of_particle<Real, DensityKernel>(v, i, lanes);
     else
-      density_of_particle<Real, DensityKernel>(v, i, lanes, scatter);
+      density_of_particle<Real, DensityKernel>(v, i, lanes);
   }
   MESO_HD MESO_INLINE void begin(const StepView<Real>& v, int i) const {
     begin_sums<Real, DensityKernel, kWalls>(v, i);

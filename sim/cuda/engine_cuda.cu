@@ -406,14 +406,6 @@ __global__ void buried_sums_kernel(StepView<Real> v, int first, Sums sums) {
   if (i < v.n) sums(v, i);
 }
 
-// The frozen particles in [first, end) after a scattering sums pass (finish_scattered_sums).
-template <class Real, bool kDensity, bool kWalls>
-__global__ void finish_scattered_sums_kernel(StepView<Real> v, int first, int end,
-                                             unsigned long long* fixed_rho) {
-  const int i = first + blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < end) finish_scattered_sums<Real, kDensity, kWalls>(v, i, fixed_rho);
-}
-
 // The frozen particles' static sums over their frozen neighbours (StepView::frozen_rho).
 template <class Real, class DensityKernel, bool kWalls>
 __global__ void frozen_sums_kernel(StepView<Real> v, Real* rho, Real* wall) {
@@ -826,8 +818,7 @@ class CudaEngine final : public Engine<Real>,
         burying_(o.buried_part),
         graphs_(o.graphs),
         lanes_(o.lanes),
-        masking_(o.penetration_mask),
-        scattering_on_(o.frozen_scatter) {
+        masking_(o.penetration_mask) {
     check(cudaSetDevice(device_), "cudaSetDevice");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
@@ -1256,22 +1247,9 @@ class CudaEngine final : public Engine<Real>,
   // (LaneGroup), so that it has threads enough to fill the GPU.
   // Both pair passes stop before the buried part (StepView::buried_part), with the same count,
   // so that they see one neighbour-list layout.
-  // Once the frozen part's static sums hold, the sums pass visits the mobile part alone and
-  // scatters into the frozen neighbours (FrozenDensityScatter); a kernel then finishes the frozen
-  // part's sums.
   template <class Pass>
   void pair_sums(const StepView<Real>& all, Pass pass) {
     const StepView<Real> v = stepping(all);
-    if (!scattering()) return launch_sums(v, pass);
-    using K = std::conditional_t<C::needs_density, typename C::density_kernel, void>;
-    launch_sums(v, SumsPass<Real, K, W::enabled, FrozenDensityScatter<Real>>{
-                       {fixed_rho_.get(), mobile_count_}});
-    const int end = n_ - buried_count_;
-    finish_scattered_sums_kernel<Real, C::needs_density, W::enabled>
-        <<<blocks_for(end - mobile_count_), kBlock>>>(view(), mobile_count_, end, fixed_rho_.get());
-  }
-  template <class Pass>
-  void launch_sums(const StepView<Real>& v, Pass pass) {
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
       for_each_lanes_kernel<L><<<blocks_for(L * v.n), kBlock>>>(v, pass, lane_list(L, v.n));
@@ -1291,18 +1269,11 @@ class CudaEngine final : public Engine<Real>,
     });
     lane_list_ready_ = false;
   }
-  // The particles a step's pair passes visit: all but the buried part; the mobile part alone
-  // while the sums scatter (kBoundNoFrozenSums: whenever the frozen part's static sums hold).
+  // The particles a step's pair passes visit: all but the buried part.
+  // (kBoundNoFrozenSums: the mobile part alone.)
   StepView<Real> stepping(StepView<Real> v) const {
-    v.n = (kBoundNoFrozenSums && frozen_sums_valid_) || scattering() ? mobile_count_
-                                                                     : v.n - buried_count_;
+    v.n = kBoundNoFrozenSums && frozen_sums_valid_ ? mobile_count_ : v.n - buried_count_;
     return v;
-  }
-  // The sums pass scatters (FrozenDensityScatter): with the frozen part's static sums, on one rank,
-  // unless switched off (SimulationOptions::frozen_scatter). The frozen particles' forces stay 0
-  // (update_frozen_sums), as the force pass would write them.
-  bool scattering() const {
-    return scattering_on_ && frozen_sums_valid_ && !this->hooks().distributed();
   }
   // The lanes' neighbour list (LaneList) for L lanes of n particles, grown when it must be (the
   // first step of a run, before any graph is captured; a decomposed run's count changes). The
@@ -1520,13 +1491,6 @@ class CudaEngine final : public Engine<Real>,
     }
     frozen_sums_valid_ = true;
     if constexpr (W::enabled) update_penetration_mask(frozen > 0);
-    if (scattering_on_) {
-      fixed_rho_.set_size(frozen > 0 ? frozen : 1);
-      check(cudaMemsetAsync(fixed_rho_.get(), 0, fixed_rho_.size() * sizeof(unsigned long long)),
-            "scattered sums reset");
-      for (DeviceBuffer<Real>* f : {&fx_, &fy_, &fz_})
-        check(cudaMemsetAsync(f->get() + mobile_count_, 0, frozen * sizeof(Real)), "frozen forces");
-    }
     if constexpr (C::needs_density || W::enabled)
       if (buried_count_ > 0)
         buried_sums_kernel<<<blocks_for(buried_count_), kBlock>>>(view(), n_ - buried_count_,
@@ -1804,7 +1768,6 @@ class CudaEngine final : public Engine<Real>,
     for (const DeviceBuffer<std::int32_t>* a : {&type_, &origin_, &type_alt_, &origin_alt_})
       b += a->size() * sizeof(std::int32_t);
     b += (id_.size() + id_alt_.size()) * sizeof(std::int64_t);
-    b += fixed_rho_.size() * sizeof(unsigned long long);
     b += penetration_bits_.size() * sizeof(std::uint32_t) + penetration_temp_.size() +
          penetration_flag_.size() +
          (penetration_list_.size() + penetration_listed_.size()) * sizeof(int);
@@ -1875,7 +1838,7 @@ class CudaEngine final : public Engine<Real>,
     add(left_to_grid_), add(left_to_grid_alt_);
     add(early_count_), add(watchdog_record_), add(step_base_), add(penetration_bits_);
     add(penetration_list_), add(penetration_listed_), add(penetration_flag_),
-        add(penetration_temp_), add(fixed_rho_);
+        add(penetration_temp_);
     double dt = static_cast<double>(dt_);
     std::uint64_t dt_bits = 0;
     std::memcpy(&dt_bits, &dt, sizeof dt_bits);
@@ -2079,10 +2042,6 @@ class CudaEngine final : public Engine<Real>,
   bool penetration_built_ = false;
   PenetrationMask<Real> penetration_;
   DeviceBuffer<std::uint32_t> penetration_bits_;
-  // The sums' scatter into the frozen part (FrozenDensityScatter; SimulationOptions::
-  // frozen_scatter): the k-th frozen particle's fixed-point sum at k.
-  bool scattering_on_ = true;
-  DeviceBuffer<unsigned long long> fixed_rho_;
   // The corrector's selection (needs_frozen_phi): the flags, the listed particles, their count,
   // CUB's scratch.
   DeviceBuffer<int> penetration_list_, penetration_listed_;

@@ -17,7 +17,6 @@ struct CudaEngineOptions {
   bool graphs = true;
   int lanes = 0;
   bool penetration_mask = true;
-  bool frozen_scatter = true;
 };
 
 template <class Real>

@@ -285,40 +285,6 @@ TEST_P(GpuVsCpu, ThickWallAgreesWithTheCpuStepAfterStep) {
   EXPECT_LT(worst_position_difference(a->particles(), fresh->particles()), 1e-4);
 }
 
-// The frozen part's sums by scattering (SimulationOptions::frozen_scatter): the mobile particles
-// add their weights to their frozen neighbours' fixed-point sums with integer atomics. Against the
-// gather (off): rho, phi and forces to round-off. Two runs with it: every bit the same after 30
-// steps, whatever order the atomics ran in (float atomics would differ).
-TEST_P(GpuVsCpu, FrozenScatterRoundsOnlyAndRepeatsItsBits) {
-  Case c = fluid_and_wall(GetParam(), 80);
-  c.model.wall_model.enabled = true;
-  fill_over_wall(c, 9, 9, 12, 4, 3600, 6);
-  ms::SimulationOptions on, off;
-  on.backend = off.backend = ms::BackendKind::CUDA;
-  off.frozen_scatter = false;
-  auto a = ms::make_simulation(c.model, c.box, c.particles, 0.01, on);
-  auto b = ms::make_simulation(c.model, c.box, c.particles, 0.01, off);
-  const double tol = GetParam() == ms::Precision::Single ? 1e-5 : 1e-11;
-  const auto ra = a->densities(), rb = b->densities();
-  const auto pa = a->boundary_volume_fractions(), pb = b->boundary_volume_fractions();
-  ASSERT_EQ(ra.size(), rb.size());
-  for (size_t i = 0; i < ra.size(); ++i) {
-    ASSERT_NEAR(ra[i], rb[i], tol * (1 + rb[i])) << "particle " << i;
-    ASSERT_EQ(pa[i], pb[i]) << "particle " << i;
-  }
-  EXPECT_LT(worst_force_difference(b->forces(), a->forces()), 10 * tol);
-  auto again = ms::make_simulation(c.model, c.box, c.particles, 0.01, on);
-  a->run(30);
-  again->run(30);
-  const auto xa = a->particles(), xb = again->particles();
-  ASSERT_EQ(xa.size(), xb.size());
-  for (size_t i = 0; i < xa.size(); ++i) {
-    ASSERT_EQ(xa.x[i], xb.x[i]) << "particle " << i;
-    ASSERT_EQ(xa.vz[i], xb.vz[i]) << "particle " << i;
-  }
-  EXPECT_EQ(a->wall_corrections(), again->wall_corrections());
-}
-
 // A liquid compressed to rho = 30 has about 126 neighbours per particle: more than the GPU's
 // neighbour list holds for one thread (72 slots) or for each of 2, 4 and 8 lanes (40, 24, 16).
 // The lanes that overflow scan again in the force pass; the forces must still be the CPU's.
