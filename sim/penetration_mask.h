@@ -5,7 +5,7 @@
 //
 // Why: the GPU's corrector before the sort computes phi over the frozen part for every mobile
 // particle, and at the resolutions rockprep picks most of the fluid has wall within rc (73% at
-// 0.5 rc per voxel), so that scan cost 0.46 ms of a 3.3 ms step (docs/benchmarks.md). A particle
+// 0.5 rc per voxel), so that scan cost 0.46 ms of a 3.5 ms step (docs/benchmarks.md). A particle
 // in a clear cell has phi <= phi_c for certain: the scan would decide "no correction", so it is
 // skipped and every result keeps its bits. Only the frozen part enters the bound, as only the
 // frozen part enters that scan (Parts::FrozenOnly).

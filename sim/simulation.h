@@ -43,7 +43,7 @@ struct SimulationOptions {
   bool buried_part = true;
   // CUDA backend, wall model with the frozen part: the corrector before the sort computes phi
   // only where the frozen part may put it past phi_c (StepView::penetration, a bit per cell of
-  // rc / 8). Every bit of the result is the same; off only to measure what it saves
+  // rc / 8 or more). Every bit of the result is the same; off only to measure what it saves
   // (`rockflow bench --penetration-mask off`).
   bool penetration_mask = true;
   // CUDA backend: runs of steps captured once as a CUDA graph and replayed (ARCHITECTURE.md), so
