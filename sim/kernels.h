@@ -468,6 +468,7 @@ MESO_HD std::uint32_t penetration_mask_word(const StepView<Real>& v, const Penet
   MESO_UNROLL
   for (int k = 0; k < K; ++k) sum[k] = Real(0);
   const int part = v.frozen_part > 0 ? v.frozen_part : 0;  // the frozen part, or everything
+  // CellGrid::wrap covers one image each way; a short periodic axis needs more here.
   auto wrap = [&](int k, int a, Real& shift) {
     const int n = v.grid.dims[a];
     int q = k / n;

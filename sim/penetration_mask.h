@@ -55,7 +55,6 @@ struct PenetrationMask {
       const Real u = (p[a] - lo[a]) * inv_cell[a];
       if (!(u >= Real(0)) || !(u < Real(dims[a]))) return true;
       c[a] = static_cast<int>(u);
-      if (c[a] >= dims[a]) return true;
     }
     const std::size_t index = (static_cast<std::size_t>(c[2]) * static_cast<std::size_t>(dims[1]) +
                                static_cast<std::size_t>(c[1])) *

@@ -98,8 +98,9 @@ fi
 # beside the bulk liquid of its mobile count, ROUNDS times. RES_BINS may name timing-bound builds
 # (build_bundle.sh VARIANTS="bsums:-DMESOROCK_BOUND_NO_FROZEN_SUMS ...": wrong physics on purpose,
 # sim/cuda/engine_cuda.cu). RES_SWITCHES runs each binary once per set of bench switches, the sets
-# separated by ";" (RES_SWITCHES="--penetration-mask on;--penetration-mask off"). RES_PROFILE=1 adds rockflow's per-pass profile of each; RES_RUN=1 runs
-# each scene as rockprep wrote it (`rockflow run`, double) beside the bulk liquid in double.
+# separated by ";" (RES_SWITCHES="--penetration-mask on;--penetration-mask off"). RES_PROFILE=1
+# adds rockflow's per-pass profile of each set; RES_RUN=1 runs each scene as rockprep wrote it
+# (`rockflow run`, double) beside the bulk liquid in double.
 # RES_SWEEP lists resolutions (among RESOLUTIONS) to sweep as docs/accuracy.md's resolution rows
 # do: g = 0.04 / (rc per voxel)^2, a warm-up of 2,000 (rc per voxel)^2 steps or 2,000, blocks of
 # 1,000 steps, 10 measured.

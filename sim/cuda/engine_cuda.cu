@@ -1339,12 +1339,8 @@ class CudaEngine final : public Engine<Real>,
     }
     needs_frozen_phi_kernel<<<blocks_for(mobile_count_), kBlock>>>(v, mobile_count_,
                                                                    penetration_flag_.get());
-    size_t bytes = penetration_temp_.size();
-    check(cub::DeviceSelect::Flagged(penetration_temp_.get(), bytes,
-                                     thrust::counting_iterator<int>(0), penetration_flag_.get(),
-                                     penetration_list_.get(), penetration_listed_.get(),
-                                     mobile_count_),
-          "penetration selection");
+    select_flagged(penetration_flag_.get(), mobile_count_, penetration_list_.get(),
+                   penetration_listed_.get(), penetration_temp_);
     if (profile_ && listed_total_.size() == 0) {
       listed_total_.resize(1);
       check(cudaMemset(listed_total_.get(), 0, sizeof(unsigned long long)), "listed reset");
@@ -1507,23 +1503,17 @@ class CudaEngine final : public Engine<Real>,
     const Box<Real>& box = host_->box;
     penetration_ =
         penetration_mask_geometry<Real>(box.lo, box.length, kPenetrationCell, kPenetrationCells);
-    const std::size_t words = penetration_.words();
+    const std::size_t words = penetration_.words();  // at most 2^28 / 32
     penetration_bits_.set_size(words);
-    const std::size_t blocks = (words + kBlock - 1) / kBlock;
-    penetration_mask_kernel<<<static_cast<unsigned int>(blocks), kBlock>>>(view(), penetration_,
-                                                                           penetration_bits_.get());
+    penetration_mask_kernel<<<blocks_for(static_cast<int>(words)), kBlock>>>(
+        view(), penetration_, penetration_bits_.get());
     check(cudaGetLastError(), "penetration mask");
-    // The selection's list and scratch, sized here: a captured step may not allocate.
+    // The selection's flags, list and scratch, sized here: a captured step may not allocate.
     const size_t m = static_cast<size_t>(mobile_count_ > 0 ? mobile_count_ : 1);
     penetration_list_.set_size(m);
     penetration_flag_.set_size(m);
     penetration_listed_.set_size(1);
-    size_t bytes = 0;
-    check(cub::DeviceSelect::Flagged(nullptr, bytes, thrust::counting_iterator<int>(0),
-                                     penetration_flag_.get(), penetration_list_.get(),
-                                     penetration_listed_.get(), mobile_count_),
-          "penetration selection sizing");
-    penetration_temp_.set_size(bytes > 0 ? bytes : 1);
+    size_selection(mobile_count_, penetration_temp_);
     penetration_built_ = true;
   }
   // The mobile particles the corrector scanned, as a share of the mobile part (profiling).
@@ -1676,19 +1666,30 @@ class CudaEngine final : public Engine<Real>,
   int select(DeviceBuffer<unsigned char>& flag, DeviceBuffer<int>& out) {
     out.set_size(static_cast<size_t>(n_ > 0 ? n_ : 1));
     selected_.set_size(1);
-    iota_.set_size(static_cast<size_t>(n_ > 0 ? n_ : 1));
-    iota_kernel<<<blocks_for(n_), kBlock>>>(iota_.get(), n_);
-    size_t bytes = 0;
-    check(cub::DeviceSelect::Flagged(nullptr, bytes, iota_.get(), flag.get(), out.get(),
-                                     selected_.get(), n_),
-          "select sizing");
-    select_temp_.set_size(bytes > 0 ? bytes : 1);
-    check(cub::DeviceSelect::Flagged(select_temp_.get(), bytes, iota_.get(), flag.get(), out.get(),
-                                     selected_.get(), n_),
-          "select");
+    select_flagged(flag.get(), n_, out.get(), selected_.get(), select_temp_);
     std::vector<int> count;
     selected_.download(count);
     return count[0];
+  }
+  // The same on the stream, the count left in device memory at *count; CUB's scratch in `temp`.
+  // CUB's scratch for a selection among m flags, grown in `temp` when it must (a captured step
+  // must find it grown: the corrector's is sized at the full sort, update_penetration_mask).
+  static void size_selection(int m, DeviceBuffer<unsigned char>& temp) {
+    size_t bytes = 0;
+    check(cub::DeviceSelect::Flagged(nullptr, bytes, thrust::counting_iterator<int>(0),
+                                     static_cast<const unsigned char*>(nullptr),
+                                     static_cast<int*>(nullptr), static_cast<int*>(nullptr), m),
+          "select sizing");
+    bytes = std::max<size_t>(bytes, 1);
+    if (temp.size() < bytes) temp.set_size(bytes);
+  }
+  void select_flagged(const unsigned char* flag, int m, int* out, int* count,
+                      DeviceBuffer<unsigned char>& temp) {
+    size_selection(m, temp);
+    size_t bytes = temp.size();
+    check(cub::DeviceSelect::Flagged(temp.get(), bytes, thrust::counting_iterator<int>(0), flag,
+                                     out, count, m),
+          "select");
   }
 
   void map_slots() {
@@ -2003,7 +2004,6 @@ class CudaEngine final : public Engine<Real>,
   int ghost_count_ = 0, send_count_ = 0;
   DeviceBuffer<unsigned char> flag_a_, flag_b_, select_temp_;
   DeviceBuffer<int> selected_, slot_index_, send_box_;
-  DeviceBuffer<std::int32_t> iota_;
   DeviceBuffer<std::int32_t> send_slots_;
   DeviceBuffer<MigrantRecord<Real>> migrants_;
   DeviceBuffer<GhostRecord<Real>> ghosts_out_, ghosts_in_;
