@@ -266,17 +266,28 @@ void write_particle_file(const fs::path& path, const ParticleSet& p, const Parti
   });
 }
 
-ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out) {
-  silence_hdf5_errors();
-  const std::string file = path.string();
-  Handle f = open_file_for_reading(path, file);
-  if (H5Lexists(f.get(), "particles", H5P_DEFAULT) <= 0) fail(file, "/particles", "missing");
-  Handle g = checked(H5Gopen2(f.get(), "particles", H5P_DEFAULT), H5Gclose, file, "/particles",
-                     "not a group");
+namespace {
 
+// A particle file open for reading: the file and its /particles group.
+struct OpenParticleFile {
+  std::string file;  // the path, for messages
+  Handle f, g;
+};
+OpenParticleFile open_particle_file(const fs::path& path) {
+  silence_hdf5_errors();
+  OpenParticleFile o;
+  o.file = path.string();
+  o.f = open_file_for_reading(path, o.file);
+  if (H5Lexists(o.f.get(), "particles", H5P_DEFAULT) <= 0) fail(o.file, "/particles", "missing");
+  o.g = checked(H5Gopen2(o.f.get(), "particles", H5P_DEFAULT), H5Gclose, o.file, "/particles",
+                "not a group");
+  return o;
+}
+
+// The attributes of an open particle file (f the file, g its /particles group), checked.
+ParticleFileMeta read_meta(hid_t f, hid_t g, const std::string& file) {
   ParticleFileMeta meta;
-  meta.type_names =
-      *read_string_attribute(g.get(), "type_names", "/particles@type_names", file, true);
+  meta.type_names = *read_string_attribute(g, "type_names", "/particles@type_names", file, true);
   {
     std::set<std::string> seen;
     for (const auto& s : meta.type_names) {
@@ -285,12 +296,12 @@ ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out)
         fail(file, "/particles@type_names", "duplicate type name \"" + s + "\"");
     }
   }
-  const auto lo = *read_numeric_attribute<double>(g.get(), "box_lo", "/particles@box_lo",
+  const auto lo = *read_numeric_attribute<double>(g, "box_lo", "/particles@box_lo",
                                                   H5T_NATIVE_DOUBLE, H5T_FLOAT, 3, file, true);
-  const auto hi = *read_numeric_attribute<double>(g.get(), "box_hi", "/particles@box_hi",
+  const auto hi = *read_numeric_attribute<double>(g, "box_hi", "/particles@box_hi",
                                                   H5T_NATIVE_DOUBLE, H5T_FLOAT, 3, file, true);
   const auto per = *read_numeric_attribute<std::int32_t>(
-      g.get(), "periodic", "/particles@periodic", H5T_NATIVE_INT32, H5T_INTEGER, 3, file, true);
+      g, "periodic", "/particles@periodic", H5T_NATIVE_INT32, H5T_INTEGER, 3, file, true);
   for (int a = 0; a < 3; ++a) {
     if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]))
       fail(file, "/particles@box_lo", "box bounds must be finite");
@@ -303,23 +314,29 @@ ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out)
     meta.box.periodic[a] = per[a] != 0;
   }
   if (auto s = read_numeric_attribute<std::uint64_t>(
-          g.get(), "step", "/particles@step", H5T_NATIVE_UINT64, H5T_INTEGER, 1, file, false))
+          g, "step", "/particles@step", H5T_NATIVE_UINT64, H5T_INTEGER, 1, file, false))
     meta.step = s->front();
-  if (auto t = read_numeric_attribute<double>(g.get(), "time", "/particles@time", H5T_NATIVE_DOUBLE,
+  if (auto t = read_numeric_attribute<double>(g, "time", "/particles@time", H5T_NATIVE_DOUBLE,
                                               H5T_FLOAT, 1, file, false)) {
     if (!std::isfinite(t->front())) fail(file, "/particles@time", "must be finite");
     meta.time = t->front();
   }
-  if (auto s = read_scalar_string(f.get(), "created_by", "/@created_by", file))
-    meta.created_by = *s;
-  if (auto s = read_scalar_string(f.get(), "provenance", "/@provenance", file))
-    meta.provenance_json = *s;
-  if (auto s = read_scalar_string(f.get(), "length_unit", "/@length_unit", file))
-    meta.length_unit = *s;
-  if (auto s = read_scalar_string(f.get(), "mesorock_version", "/@mesorock_version", file))
+  if (auto s = read_scalar_string(f, "created_by", "/@created_by", file)) meta.created_by = *s;
+  if (auto s = read_scalar_string(f, "provenance", "/@provenance", file)) meta.provenance_json = *s;
+  if (auto s = read_scalar_string(f, "length_unit", "/@length_unit", file)) meta.length_unit = *s;
+  if (auto s = read_scalar_string(f, "mesorock_version", "/@mesorock_version", file))
     meta.mesorock_version = *s;
-  if (auto s = read_scalar_string(f.get(), "git_commit", "/@git_commit", file))
-    meta.git_commit = *s;
+  if (auto s = read_scalar_string(f, "git_commit", "/@git_commit", file)) meta.git_commit = *s;
+  return meta;
+}
+
+}  // namespace
+
+ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out) {
+  const OpenParticleFile o = open_particle_file(path);
+  const std::string& file = o.file;
+  const Handle &f = o.f, &g = o.g;
+  ParticleFileMeta meta = read_meta(f.get(), g.get(), file);
 
   hsize_t n = 0;
   const auto pos = read_dataset<double>(g.get(), "position", H5T_NATIVE_DOUBLE, H5T_FLOAT, 3,
@@ -359,13 +376,15 @@ ParticleSet read_particle_file(const fs::path& path, ParticleFileMeta* meta_out)
   return p;
 }
 
+ParticleFileMeta read_particle_file_meta(const fs::path& path) {
+  const OpenParticleFile o = open_particle_file(path);
+  return read_meta(o.f.get(), o.g.get(), o.file);
+}
+
 std::size_t read_particle_file_count(const fs::path& path) {
-  silence_hdf5_errors();
-  const std::string file = path.string();
-  Handle f = open_file_for_reading(path, file);
-  if (H5Lexists(f.get(), "particles", H5P_DEFAULT) <= 0) fail(file, "/particles", "missing");
-  Handle g = checked(H5Gopen2(f.get(), "particles", H5P_DEFAULT), H5Gclose, file, "/particles",
-                     "not a group");
+  const OpenParticleFile o = open_particle_file(path);
+  const std::string& file = o.file;
+  const Handle& g = o.g;
   const std::string where = "/particles/position";
   Handle ds = open_dataset(g.get(), "position", where, file);
   Handle space = checked(H5Dget_space(ds.get()), H5Sclose, file, where, "cannot read dataspace");

@@ -72,6 +72,10 @@ class ParticleFileWriter {
 ParticleSet read_particle_file(const std::filesystem::path& path,
                                ParticleFileMeta* meta_out = nullptr);
 
+// The attributes of a particle file alone (type names, box, provenance...), checked as
+// read_particle_file checks them, reading no particle.
+ParticleFileMeta read_particle_file_meta(const std::filesystem::path& path);
+
 // The particle count of a particle file, from the shape of /particles/position, reading no
 // particle (for memory estimates before a scene's particles are built). IoError as above.
 std::size_t read_particle_file_count(const std::filesystem::path& path);

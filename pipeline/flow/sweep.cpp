@@ -327,14 +327,17 @@ int parse_axis(const std::string& a) {
   throw ConfigError("sweep: --axis must be x, y or z (got " + a + ")");
 }
 
+// The provenance JSON a particle file records (not an object: none, or not JSON).
+nlohmann::json particle_file_provenance(const fs::path& file) {
+  return nlohmann::json::parse(sim::read_particle_file_meta(file).provenance_json, nullptr, false);
+}
+
 // The fluid density a particle file records for the driven types, if any: `rockprep run
 // --layout permeability` writes {"fluid_types": [...], "fluid_density": n} in the file's
 // provenance, since a file block of the scene has no density.
 std::optional<double> density_from_particle_file(const Scene& scene, const InitSpec& b,
                                                  std::uint32_t driven) {
-  sim::ParticleFileMeta meta;
-  sim::read_particle_file(b.file, &meta);
-  const nlohmann::json j = nlohmann::json::parse(meta.provenance_json, nullptr, false);
+  const nlohmann::json j = particle_file_provenance(b.file);
   if (!j.is_object() || !j.contains("fluid_density") || !j["fluid_density"].is_number() ||
       !j.contains("fluid_types") || !j["fluid_types"].is_array())
     return std::nullopt;
@@ -372,6 +375,61 @@ std::optional<double> density_from_scene(const Scene& scene, std::uint32_t drive
     found = rho;
   }
   return found;
+}
+
+std::uint64_t viscous_warmup_steps(double pore_diameter, double kinematic_viscosity, double dt,
+                                   std::uint64_t least) {
+  if (!(pore_diameter > 0) || !(kinematic_viscosity > 0) || !(dt > 0) ||
+      !std::isfinite(pore_diameter * pore_diameter / kinematic_viscosity / dt))
+    throw ConfigError("sweep: the warm-up needs a positive pore diameter, viscosity and dt");
+  const double pi = 3.14159265358979323846;
+  const double relaxation = pore_diameter * pore_diameter / (pi * pi * kinematic_viscosity);
+  const double steps = std::ceil(kWarmupRelaxations * relaxation / dt / 100 - 1e-9) * 100;
+  // Beyond 10^12 steps no sweep would end: the caller's max steps refuses it.
+  return std::max(least, static_cast<std::uint64_t>(std::min(steps, 1e12)));
+}
+
+std::optional<double> median_pore_diameter_of(const Scene& scene) {
+  for (const auto& b : scene.init) {
+    if (b.kind != InitSpec::Kind::File) continue;
+    const nlohmann::json j = particle_file_provenance(b.file);
+    if (!j.is_object() || !j.contains("pore_sizes") || !j["pore_sizes"].is_object()) continue;
+    const nlohmann::json& sizes = j["pore_sizes"];
+    if (!sizes.contains("median_rc") || !sizes["median_rc"].is_number()) continue;
+    const double d = sizes["median_rc"].get<double>();
+    if (!(d > 0) || !std::isfinite(d))
+      throw ConfigError(b.file.string() + ": pore_sizes.median_rc in the provenance is " + fmt(d) +
+                        ", not a positive diameter");
+    return d;
+  }
+  return std::nullopt;
+}
+
+nlohmann::json sweep_warmup(const Scene& scene, const SweepCommand& c, SweepOptions& o) {
+  if (!c.warmup_from_pores) return {{"steps", o.warmup_steps}, {"source", "given"}};
+  const std::optional<double> d = median_pore_diameter_of(scene);
+  if (!d)
+    return {{"steps", o.warmup_steps},
+            {"source", "the default: the sample records no pore sizes (rockprep run writes them)"}};
+  const double nu = o.viscosity / o.fluid_density;  // m = 1
+  const std::uint64_t pores = viscous_warmup_steps(*d, nu, o.dt, 0);
+  const std::uint64_t steps = std::max(pores, o.warmup_steps);
+  const std::string times = fmt(kWarmupRelaxations) +
+                            " momentum-diffusion times of the median pore (d = " + fmt(*d, 3) +
+                            " rc, nu = " + fmt(nu, 3) + ")";
+  const std::string source = pores > o.warmup_steps
+                                 ? times
+                                 : "the least warm-up; " + times + " are " + std::to_string(pores);
+  if (c.max_steps_from_warmup) o.max_steps += steps - o.warmup_steps;
+  o.warmup_steps = steps;
+  return {{"steps", steps},
+          {"source", source},
+          {"median_pore_diameter_rc", *d},
+          {"kinematic_viscosity", nu},
+          {"relaxations", kWarmupRelaxations},
+          {"rule",
+           "relaxations x d^2 / (pi^2 nu) in steps of dt, rounded up to 100, at least the "
+           "default warm-up"}};
 }
 
 // The types the sweep drives: --types, else the scene's body-force types, else every mobile one.
@@ -799,6 +857,12 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   for (size_t k = 0; k + 1 < scene.stages.size(); ++k)
     o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
   const nlohmann::json viscosity = sweep_viscosity(scene, c, where, o, meter);
+  const nlohmann::json warmup = sweep_warmup(scene, c, o);
+  if (c.warmup_from_pores && c.progress) {
+    clear_progress_line(std::cerr);
+    std::cerr << "rockflow sweep: warm-up " << o.warmup_steps << " steps per point ("
+              << warmup.at("source").get<std::string>() << "; --warmup sets it)\n";
+  }
 
   const std::vector<SweepPoint> points = run_sweep(sample, o);
   const SweepFits fits = fit_sweep(points, o.viscosity, o.viscosity_error);
@@ -812,6 +876,7 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
   StagedOutputs outputs = StagedOutputs::files();
   write_sweep_tables(outputs, c.out_dir, record);
   nlohmann::json summary = sweep_summary(record, fluid_count, viscosity, meter);
+  summary["steady_state"]["warmup"] = warmup;
   summary["throughput"] = points_throughput(record, sample.particles.size(), mobile_count);
   write_sweep_plot(outputs, c.out_dir, record);
   outputs.write_text(c.out_dir / "sweep.json", summary.dump(2) + "\n");

@@ -96,8 +96,10 @@ FlowCommand add_sweep_command(CLI::App& rockflow) {
       ->capture_default_str();
   sweep->add_option("--viscosity-cache", a->viscosity_cache,
                     "folder of cached calibrations (default: ~/.cache/mesorock/viscosity)");
-  sweep->add_option("--warmup", sc.run.warmup_steps, "steps before blocks start, per point")
-      ->capture_default_str();
+  CLI::Option* warmup =
+      sweep->add_option("--warmup", sc.run.warmup_steps,
+                        "steps before blocks start, per point (default: from the sample's median "
+                        "pore when rockprep recorded it, at least 2000)");
   sweep->add_option("--block-steps", sc.run.block_steps, "steps per averaging block")
       ->capture_default_str();
   sweep->add_option("--window", sc.run.window, "blocks per half of the steady-state test")
@@ -106,15 +108,19 @@ FlowCommand add_sweep_command(CLI::App& rockflow) {
       ->capture_default_str();
   sweep->add_option("--measure-blocks", sc.run.measure_blocks, "blocks measured once steady")
       ->capture_default_str();
-  sweep->add_option("--max-steps", sc.run.max_steps, "most steps per point")->capture_default_str();
+  CLI::Option* max_steps = sweep->add_option(
+      "--max-steps", sc.run.max_steps,
+      "most steps per point (default: 100000, longer by what the pores' warm-up adds)");
   sweep->add_flag("--side-by-side", sc.run.side_by_side,
                   "run every point from the prepared sample at once, not each from the last "
                   "point's state (on the GPU the points overlap: faster for small samples)");
   add_solver_flags(*sweep, a->flags);
-  return {sweep, [a](std::shared_ptr<sim::Communicator> world) {
+  return {sweep, [a, warmup, max_steps](std::shared_ptr<sim::Communicator> world) {
             const sim::SimulationOptions so = solver_options(a->flags, std::move(world));
             const Scene scene = load_scene(a->scene);
             SweepCommand sc = a->sc;
+            sc.warmup_from_pores = warmup->count() == 0;
+            sc.max_steps_from_warmup = max_steps->count() == 0;
             if (sc.run.side_by_side && so.comm && so.comm->size() > 1)
               throw ConfigError("--side-by-side runs each point on one rank: not under mpirun");
             check_memory_for(

@@ -19,6 +19,7 @@
 #include "mesorock/atomic_file.h"
 #include "mesorock/cache.h"
 #include "mesorock/errors.h"
+#include "mesorock/number_text.h"
 #include "mesorock/version.h"
 #include "packing/flooding.h"
 #include "packing/pack.h"
@@ -596,13 +597,14 @@ RunOutputs open_outputs(const RunContext& c, const RunLayout& l, const ParticleR
   if (c.plan.permeability) {
     // What rockflow sweep needs and the scene cannot say for a file block: the driven fluid's
     // density (its default n_f).
-    meta.provenance_json = nlohmann::json{
-        {"layout", "permeability"},
-        {"fluid_types", {"fluid"}},
-        {"fluid_density", a.fluid_density},
-        {"flow_axis", a.flow_axis},
-        {"mirrored",
-         !a.no_mirror}}.dump();
+    nlohmann::json provenance = {{"layout", "permeability"},
+                                 {"fluid_types", {"fluid"}},
+                                 {"fluid_density", a.fluid_density},
+                                 {"flow_axis", a.flow_axis},
+                                 {"mirrored", !a.no_mirror}};
+    // And the pore sizes, from which rockflow sweep sets its default warm-up.
+    if (c.record.contains("pore_sizes")) provenance["pore_sizes"] = c.record["pore_sizes"];
+    meta.provenance_json = provenance.dump();
   }
   o.particles = std::make_unique<packing::ParticleFileSink>(o.staged.stage("particles.h5"), meta);
   if (a.lammps) {
@@ -669,16 +671,29 @@ PackedBlock pack_block(const RunContext& c, const BlockScale& b, RunLayout& l,
   return packed;
 }
 
+// The --forces that rockprep suggests for rockflow sweep: from the block's median pore
+// (suggested_sweep_forces), or a fixed list when its pore sizes are unknown.
+std::string suggested_forces(const RunContext& c) {
+  const nlohmann::json& sizes = c.record.value("pore_sizes", nlohmann::json::object());
+  if (!sizes.contains("median_rc") || !(sizes["median_rc"].get<double>() > 0))
+    return "0.01,0.02,0.03,0.04";
+  std::string list;
+  for (double g : suggested_sweep_forces(sizes["median_rc"].get<double>()))
+    list += (list.empty() ? "" : ",") + fmt(g, 3);
+  return list;
+}
+
 // The scene file's header comment: what the set-up is and how to run it.
-std::string scene_comment(const RunArgs& a, bool permeability) {
+std::string scene_comment(const RunContext& rc, bool permeability) {
+  const RunArgs& a = rc.args;
   std::ostringstream c;
   if (permeability) {
     c << "Permeability set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
       << "): the block" << (a.no_mirror ? "" : " and its mirror image along " + a.flow_axis)
       << " in a periodic box, the fluid driven by a body force along " << a.flow_axis
-      << ".\nSweep it: rockflow sweep scene.toml --out OUT --forces 0.01,0.02,0.03,0.04 "
-         "(docs/permeability.md); or rockflow run scene.toml --out OUT.\nSeed "
-      << a.seed << "; provenance in run.json.";
+      << ".\nSweep it: rockflow sweep scene.toml --out OUT --forces " << suggested_forces(rc)
+      << " (docs/permeability.md); or rockflow run scene.toml --out OUT.\nSeed " << a.seed
+      << "; provenance in run.json.";
   } else {
     c << "Flooding set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
       << ").\nRun it: rockflow run scene.toml --out OUT (regions.csv, saturation.csv: the "
@@ -721,7 +736,7 @@ PermeabilitySceneParams scene_params(const RunContext& c, const BlockScale& b,
   sp.nm_per_rc = b.nm_per_rc;
   sp.body_force = a.body_force;
   sp.flow_steps = a.flow_steps;
-  sp.comment = scene_comment(a, c.plan.permeability);
+  sp.comment = scene_comment(c, c.plan.permeability);
   return sp;
 }
 
@@ -922,7 +937,7 @@ void print_summary(const RunContext& c, const RunLayout& l, const ParticleRoles&
   std::cout << "rockprep: " << s.str() << "\n";
   if (permeability)
     std::cout << "rockprep: next: rockflow sweep " << (out / "scene.toml").string()
-              << " --out OUT --forces 0.01,0.02,0.03,0.04\n";
+              << " --out OUT --forces " << suggested_forces(c) << "\n";
   else
     std::cout << "rockprep: next: rockflow run " << (out / "scene.toml").string() << " --out OUT\n";
 }

@@ -18,6 +18,7 @@
 //    kResolvedThroatRc, and, with no length scale given, picks the rc per voxel that reaches it
 //    (at least 0.5).
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace mesorock::pipeline::prep {
@@ -38,6 +39,17 @@ inline double auto_rc_per_voxel(double critical_voxels) {
   if (!(critical_voxels > 0)) return kMaxAutoRcPerVoxel;
   const double want = std::ceil(kResolvedThroatRc / critical_voxels / 0.05 - 1e-9) * 0.05;
   return std::clamp(want, kMinAutoRcPerVoxel, kMaxAutoRcPerVoxel);
+}
+
+// The body forces rockprep suggests for rockflow sweep. The resolution study's forces (0.16 at
+// a median pore of 3.79 rc, 0.0711 at 5.68, 0.04 at 7.57, 0.0278 at 9.09, 0.0156 at 12.1, 0.01 at
+// 15.1) kept g d^2 = 2.29 for the median pore d, so that the pores' velocities, and the flux's
+// signal over its thermal noise, stayed alike; each gave k within 3.5% of the LBM
+// (docs/accuracy.md). The suggestion: that force and 3/4, 1/2, 1/4 of it.
+constexpr double kSweepForceTimesPore2 = 2.29;
+inline std::array<double, 4> suggested_sweep_forces(double median_pore_rc) {
+  const double top = kSweepForceTimesPore2 / (median_pore_rc * median_pore_rc);
+  return {top / 4, top / 2, 3 * top / 4, top};
 }
 
 }  // namespace mesorock::pipeline::prep

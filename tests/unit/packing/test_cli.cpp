@@ -216,6 +216,17 @@ TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   EXPECT_EQ(run["parameters"]["layout"], "permeability");
   EXPECT_EQ(run["layout"]["kind"], "permeability");
   EXPECT_TRUE(run["layout"]["mirrored"].get<bool>());
+  // The pore sizes travel with the particles (rockflow sweep's default warm-up), and the
+  // suggested forces follow the median pore: the top one g = 2.29 / d^2.
+  const double median = run.at("pore_sizes").at("median_rc").get<double>();
+  const auto provenance = nlohmann::json::parse(
+      sim::read_particle_file_meta(tmp / "perm" / "particles.h5").provenance_json);
+  EXPECT_EQ(provenance.at("pore_sizes").at("median_rc").get<double>(), median);
+  const std::size_t forces = r.out.find("--forces ");
+  ASSERT_NE(forces, std::string::npos) << r.out;
+  const std::string list = r.out.substr(forces + 9, r.out.find('\n', forces) - forces - 9);
+  const double top = std::stod(list.substr(list.rfind(',') + 1));
+  EXPECT_NEAR(top * median * median, pipeline::prep::kSweepForceTimesPore2, 0.01) << list;
 
   // The scene: periodic box twice the block's 20 voxels x 0.5 rc along x, the block's 8 and 6 rc
   // across; no slabs or virtual walls; one mobile type, driven along x; frozen walls with the

@@ -12,6 +12,8 @@
 #include "pipeline/flow/darcy_fit.h"
 #include "pipeline/flow/sweep.h"
 #include "pipeline/flow/systems.h"
+#include "pipeline/scene.h"
+#include "sim/particle_io.h"
 #include "support/test_support.h"
 #include "unit/pipeline/tiny_slit.h"
 
@@ -190,6 +192,8 @@ TEST(SweepCli, TinySweepWritesItsOutputsAndReusesTheCalibration) {
   EXPECT_LT(eta, 12);
   EXPECT_EQ(j.at("flow_axis"), "x");
   EXPECT_EQ(j.at("fluid_density").get<double>(), 7.0);
+  EXPECT_EQ(j.at("steady_state").at("warmup").at("source"), "given");
+  EXPECT_EQ(j.at("steady_state").at("warmup_steps").get<int>(), 200);
   ASSERT_EQ(j.at("points").size(), 2u);
   EXPECT_LT(j["points"][0]["force_g"].get<double>(), j["points"][1]["force_g"].get<double>());
   for (const auto& p : j.at("points")) {
@@ -247,6 +251,89 @@ std::string sweep_into_o(const fs::path& scene, const TempDir& dir) {
   return mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " sweep " +
          mesorock::test::shell_quote(scene.string()) + " --out " +
          mesorock::test::shell_quote((dir / "o").string());
+}
+
+// The default warm-up from the median pore (docs/permeability.md, "Choosing the resolution"):
+// the resolution study on real rock validated these warm-ups against the LBM (docs/accuracy.md,
+// Berea 50^3 crop at 1.2, 1.6 and 2.0 rc per voxel: median pores of 9.09, 12.1 and 15.1 rc;
+// mu = 6.111 at n_f = 6.5, dt = 0.01). The rule must give them or up to 15% more.
+TEST(SweepWarmup, TheRuleGivesTheResolutionStudysWarmupsOrALittleMore) {
+  const double nu = 6.111 / 6.5;
+  const std::pair<double, std::uint64_t> study[] = {{9.0859, 2880}, {12.1, 5120}, {15.143, 8000}};
+  for (const auto& [d, used] : study) {
+    const std::uint64_t steps = mp::viscous_warmup_steps(d, nu, 0.01, 2000);
+    EXPECT_GE(steps, used) << "d = " << d;
+    EXPECT_LE(static_cast<double>(steps), 1.15 * static_cast<double>(used)) << "d = " << d;
+    EXPECT_EQ(steps % 100, 0u);
+  }
+  // Four times the pore, sixteen times the warm-up (to the rounding); never below the least.
+  EXPECT_NEAR(static_cast<double>(mp::viscous_warmup_steps(40, nu, 0.01, 0)),
+              16.0 * static_cast<double>(mp::viscous_warmup_steps(10, nu, 0.01, 0)), 1600);
+  EXPECT_EQ(mp::viscous_warmup_steps(3.79, nu, 0.01, 2000), 2000u);  // 0.5 rc per voxel
+  EXPECT_THROW(mp::viscous_warmup_steps(0, nu, 0.01, 2000), mesorock::ConfigError);
+  EXPECT_THROW(mp::viscous_warmup_steps(10, -1, 0.01, 2000), mesorock::ConfigError);
+  EXPECT_THROW(mp::viscous_warmup_steps(NAN, nu, 0.01, 2000), mesorock::ConfigError);
+}
+
+// rockprep run records its block's pore sizes in the particle file's provenance; the sweep's
+// default warm-up comes from them unless --warmup was given.
+TEST(SweepWarmup, ComesFromTheSamplesMedianPoreUnlessGiven) {
+  TempDir dir;
+  auto scene_with = [&](const std::string& name, const std::string& provenance) {
+    mesorock::sim::ParticleSet walls;
+    walls.add(1.0, 1.0, 0.5, 0, 0, 0, 0, 0);
+    mesorock::sim::ParticleFileMeta meta;
+    meta.type_names = {"wall"};
+    meta.box.hi = {4, 4, 7};
+    meta.provenance_json = provenance;
+    mesorock::sim::write_particle_file(dir / (name + ".h5"), walls, meta);
+    const fs::path toml = dir / (name + ".toml");
+    std::ofstream(toml) << mesorock::test::kTinySlit << "[[init]]\nkind = \"file\"\nfile = \""
+                        << name << ".h5\"\n";
+    return mp::load_scene(toml);
+  };
+  const mp::Scene recorded = scene_with("recorded", R"({"pore_sizes": {"median_rc": 12.1}})");
+  EXPECT_EQ(mp::median_pore_diameter_of(recorded), 12.1);
+  mp::SweepCommand c;
+  mp::SweepOptions o;
+  o.viscosity = 6.111;
+  o.fluid_density = 6.5;
+  o.dt = 0.01;
+  const mp::SweepOptions defaults = o;
+
+  nlohmann::json why = mp::sweep_warmup(recorded, c, o);  // --warmup given
+  EXPECT_EQ(why.at("source"), "given");
+  EXPECT_EQ(o.warmup_steps, defaults.warmup_steps);
+
+  c.warmup_from_pores = c.max_steps_from_warmup = true;
+  why = mp::sweep_warmup(recorded, c, o);
+  EXPECT_EQ(o.warmup_steps, mp::viscous_warmup_steps(12.1, 6.111 / 6.5, 0.01, 2000));
+  EXPECT_GT(o.warmup_steps, defaults.warmup_steps);
+  EXPECT_EQ(o.max_steps, defaults.max_steps + o.warmup_steps - defaults.warmup_steps);
+  EXPECT_EQ(why.at("median_pore_diameter_rc").get<double>(), 12.1);
+  EXPECT_EQ(why.at("steps").get<std::uint64_t>(), o.warmup_steps);
+
+  o = defaults;  // --max-steps given: kept
+  c.max_steps_from_warmup = false;
+  mp::sweep_warmup(recorded, c, o);
+  EXPECT_EQ(o.max_steps, defaults.max_steps);
+
+  o = defaults;  // no pore sizes recorded (an older rockprep, a hand-made file): the default
+  const mp::Scene bare = scene_with("bare", R"({"fluid_density": 6.5})");
+  EXPECT_FALSE(mp::median_pore_diameter_of(bare));
+  why = mp::sweep_warmup(bare, c, o);
+  EXPECT_EQ(o.warmup_steps, defaults.warmup_steps);
+  EXPECT_NE(why.at("source").get<std::string>().find("no pore sizes"), std::string::npos);
+
+  const mp::Scene bad = scene_with("bad", R"({"pore_sizes": {"median_rc": -3}})");
+  std::string msg = "<none>";
+  try {
+    mp::median_pore_diameter_of(bad);
+  } catch (const mesorock::ConfigError& e) {
+    msg = e.what();
+  }
+  EXPECT_NE(msg.find("bad.h5"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("median_rc"), std::string::npos) << msg;
 }
 
 TEST(SweepCli, BadInputIsOneLineAndExitTwo) {
