@@ -18,6 +18,10 @@
 // out. With a frozen part (StepView::frozen_part: the CPU engine on one rank) the blocks hold the
 // mobile particles only, so no list holds a pair of two frozen particles: their terms are in the
 // frozen particles' static sums (begin_sums in sim/kernels.h).
+//
+// The fill was half of a CPU step, so it is lean: a cell's stencil is found once as runs of
+// storage (stencil_runs), each particle of the cell walks them from the first candidate stored
+// after it (half a full scan), and keeps candidates without a branch (KeptList).
 #include <omp.h>
 
 #include <array>
@@ -60,6 +64,71 @@ class HalfList {
     }
   }
 
+  // A run of a cell's stencil: the particles [first, end) of consecutive cells of one row along
+  // x in one part, and the shift of their periodic image.
+  struct Run {
+    int first = 0, end = 0;
+    Real shift[3] = {0, 0, 0};
+  };
+  // The runs for_each_candidate scans for a particle of cell (cx, cy, cz) over Parts::All, in
+  // its order (HalfList.CellRunsAreTheCandidateScan pins the two together); image[a]: the
+  // minimum image per pair along axis a. The fill finds them once per cell, not per particle.
+  static void stencil_runs(const StepView<Real>& v, const int c[3], std::vector<Run>& runs,
+                           bool image[3]) {
+    const CellGrid<Real>& g = v.grid;
+    typename CellGrid<Real>::AxisRange r[3];
+    for (int a = 0; a < 3; ++a) {
+      r[a] = g.axis_range(c[a], a, v.box.periodic[a]);
+      image[a] = r[a].all || v.stale_cells;
+    }
+    const int nx = g.dims[0];
+    const int x_first[3] = {r[0].begin + nx, r[0].begin < 0 ? 0 : r[0].begin, 0};
+    const int x_last[3] = {nx, r[0].end > nx ? nx : r[0].end, r[0].end - nx};
+    const Real x_shift[3] = {-v.box.length[0], Real(0), v.box.length[0]};
+    const int parts = v.frozen_part == 0 ? 1 : 2;  // mobile, then frozen; or everything
+    runs.clear();
+    for (int kz = r[2].begin; kz < r[2].end; ++kz) {
+      Real sz;
+      const int wz = g.wrap(kz, 2, v.box.length[2], sz);
+      for (int ky = r[1].begin; ky < r[1].end; ++ky) {
+        Real sy;
+        const int wy = g.wrap(ky, 1, v.box.length[1], sy);
+        const int row = g.index(0, wy, wz);
+        for (int k = 0; k < 3; ++k) {
+          if (x_first[k] >= x_last[k]) continue;
+          for (int part = 0; part < parts; ++part) {
+            const int base = row + part * v.frozen_part;
+            runs.push_back({v.cell_start[base + x_first[k]],
+                            v.cell_start[base + x_last[k]],
+                            {x_shift[k], sy, sz}});
+          }
+        }
+      }
+    }
+  }
+
+  // Calls keep(j, r2) for every candidate j > i of particle i in `runs` (a run is contiguous in
+  // storage, so its candidates j <= i are skipped by starting it past i: half the candidates of a
+  // full scan, never looked at). kImage: some axis takes the minimum image per pair.
+  template <bool kImage, class Keep>
+  static void scan_runs(const StepView<Real>& v, int i, const std::vector<Run>& runs,
+                        const bool image[3], Keep&& keep) {
+    const Real xi = v.x[i], yi = v.y[i], zi = v.z[i];
+    for (const Run& run : runs) {
+      for (int j = run.first > i ? run.first : i + 1; j < run.end; ++j) {
+        Real dx = (xi - v.x[j]) - run.shift[0];
+        Real dy = (yi - v.y[j]) - run.shift[1];
+        Real dz = (zi - v.z[j]) - run.shift[2];
+        if constexpr (kImage) {
+          if (image[0]) dx = v.box.minimum_image(dx, 0);
+          if (image[1]) dy = v.box.minimum_image(dy, 1);
+          if (image[2]) dz = v.box.minimum_image(dz, 2);
+        }
+        keep(j, dx * dx + dy * dy + dz * dz);
+      }
+    }
+  }
+
   // Stored pairs (for the memory budget and the benchmarks).
   std::size_t pair_count() const {
     std::size_t n = 0;
@@ -75,6 +144,7 @@ class HalfList {
     std::vector<int> force_ends;  // per particle: where its frozen-frozen pairs begin
     std::vector<int> neighbours;
     std::vector<int> frozen_pairs;  // scratch
+    std::vector<Run> runs;          // scratch: a cell's stencil
   };
 
   // Blocks per axis: an even number (the colours alternate around a periodic axis) of blocks at
@@ -120,26 +190,80 @@ class HalfList {
     }
   }
 
+  // Appends to a list without branching on whether a candidate is kept: each candidate is
+  // written past the end, and the end moves on only if it is kept. Why: about one candidate in
+  // six is kept, in no order a branch predictor can follow, and the mispredictions cost more than
+  // the distance tests (the fill ran 3x slower with a branch; docs/benchmarks.md).
+  class KeptList {
+   public:
+    explicit KeptList(std::vector<int>& out) : out_(out) { grow(out.capacity()); }
+    ~KeptList() { out_.resize(size_); }
+    KeptList(const KeptList&) = delete;
+    KeptList& operator=(const KeptList&) = delete;
+    void push_if(int j, bool keep) {
+      if (size_ == capacity_) grow(2 * size_ + 256);  // rarely: predicted
+      data_[size_] = j;
+      size_ += keep;
+    }
+    void append(const KeptList& more) {
+      for (std::size_t k = 0; k < more.size_; ++k) push_if(more.data_[k], true);
+    }
+    void clear() { size_ = 0; }
+    int size() const { return static_cast<int>(size_); }
+
+   private:
+    void grow(std::size_t capacity) {
+      out_.resize(capacity);
+      data_ = out_.data();
+      capacity_ = out_.size();
+    }
+    std::vector<int>& out_;
+    int* data_ = nullptr;
+    std::size_t size_ = 0, capacity_ = 0;
+  };
+
+  // The block's lists, cell by cell: each particle's pairs with the candidates stored after it.
   static void fill(const StepView<Real>& v, Block& b, Real cut2) {
     b.offsets.clear();
     b.force_ends.clear();
-    b.neighbours.clear();
-    for (size_t r = 0; r < b.ranges.size(); r += 2)
-      for (int i = b.ranges[r]; i < b.ranges[r + 1]; ++i) {
-        b.offsets.push_back(static_cast<int>(b.neighbours.size()));
-        b.frozen_pairs.clear();
-        const bool frozen_i = v.frozen(i), ghost_i = v.ghost(i);
-        for_each_candidate(v, i, [&](int j, Real, Real, Real, Real r2) {
-          if (j <= i || !(r2 < cut2) || (ghost_i && v.ghost(j))) return;
-          if (frozen_i && v.frozen(j))
-            b.frozen_pairs.push_back(j);
-          else
-            b.neighbours.push_back(j);
-        });
-        b.force_ends.push_back(static_cast<int>(b.neighbours.size()));
-        b.neighbours.insert(b.neighbours.end(), b.frozen_pairs.begin(), b.frozen_pairs.end());
-      }
-    b.offsets.push_back(static_cast<int>(b.neighbours.size()));
+    KeptList near(b.neighbours), frozen_pairs(b.frozen_pairs);
+    const CellGrid<Real>& g = v.grid;
+    for (int cz = b.first_cell[2]; cz < b.last_cell[2]; ++cz)
+      for (int cy = b.first_cell[1]; cy < b.last_cell[1]; ++cy)
+        for (int cx = b.first_cell[0]; cx < b.last_cell[0]; ++cx) {
+          const int c[3] = {cx, cy, cz};
+          const int cell = g.index(cx, cy, cz);
+          if (v.cell_start[cell] == v.cell_start[cell + 1]) continue;
+          bool image[3];
+          stencil_runs(v, c, b.runs, image);
+          const bool any_image = image[0] || image[1] || image[2];
+          for (int i = v.cell_start[cell]; i < v.cell_start[cell + 1]; ++i) {
+            b.offsets.push_back(near.size());
+            frozen_pairs.clear();
+            const bool frozen_i = v.frozen(i), ghost_i = v.ghost(i);
+            // Bitwise on the bools: no branch on the distance test. Without a frozen part a
+            // frozen particle's pairs with frozen ones go last (the density pass alone needs
+            // them); pairs of two ghosts are left out.
+            auto keep_near = [&](int j, Real r2) { near.push_if(j, r2 < cut2); };
+            auto keep_sorted = [&](int j, Real r2) {
+              const bool keep = (r2 < cut2) & !(ghost_i && v.ghost(j));
+              const bool both_frozen = frozen_i && v.frozen(j);
+              near.push_if(j, keep & !both_frozen);
+              frozen_pairs.push_if(j, keep & both_frozen);
+            };
+            if ((frozen_i || ghost_i) && any_image)
+              scan_runs<true>(v, i, b.runs, image, keep_sorted);
+            else if (frozen_i || ghost_i)
+              scan_runs<false>(v, i, b.runs, image, keep_sorted);
+            else if (any_image)
+              scan_runs<true>(v, i, b.runs, image, keep_near);
+            else
+              scan_runs<false>(v, i, b.runs, image, keep_near);
+            b.force_ends.push_back(near.size());
+            near.append(frozen_pairs);
+          }
+        }
+    b.offsets.push_back(near.size());
   }
 
   std::vector<Block> blocks_;

@@ -64,8 +64,8 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
                        "what it saves)");
   add_measuring_switch(bench, "--buried-part", a->buried_part,
                        "keep frozen particles farther than rc from every pore voxel out of the "
-                       "steps (on; needs the frozen part and a solid grid; the GPU does it only "
-                       "when asked), or not (off: only to measure what it saves)");
+                       "steps (on; needs the frozen part and a solid grid with its bounce), or "
+                       "not (off: only to measure what it saves)");
   add_measuring_switch(bench, "--penetration-mask", a->penetration_mask,
                        "CUDA, wall model: compute phi before the sort only where the frozen "
                        "walls may put it past phi_c (on), or for every mobile particle (off: only "

@@ -284,6 +284,65 @@ TEST(HalfList, AFrozenPartKeepsItsSumsAndListsOnlyTheMobilePairs) {
   }
 }
 
+// The half list's fill walks each cell's stencil as runs kept once per cell
+// (HalfList::stencil_runs); they must be exactly the candidates for_each_candidate scans for a
+// particle of that cell, in its order and with its separations, or the lists (and every bit of
+// the CPU's sums) would change.
+void expect_cell_runs_are_the_candidate_scan(System& a, const char* what) {
+  const auto v = a.view();
+  std::vector<ms::HalfList<double>::Run> runs;
+  int checked = 0;
+  for (int i = 0; i < v.n; ++i) {
+    if (v.frozen_part > 0 && i >= v.cell_start[v.frozen_part]) break;  // the mobile part's lists
+    struct Seen {
+      int j;
+      double dx, dy, dz;
+      bool operator==(const Seen& o) const {
+        return j == o.j && dx == o.dx && dy == o.dy && dz == o.dz;
+      }
+    };
+    std::vector<Seen> scan, walked;
+    ms::for_each_candidate(v, i, [&](int j, double dx, double dy, double dz, double) {
+      scan.push_back({j, dx, dy, dz});
+    });
+    const ms::CellGrid<double>& g = v.grid;
+    const int c[3] = {g.coordinate(v.x[i], v.box.lo[0], 0), g.coordinate(v.y[i], v.box.lo[1], 1),
+                      g.coordinate(v.z[i], v.box.lo[2], 2)};
+    bool image[3];
+    ms::HalfList<double>::stencil_runs(v, c, runs, image);
+    for (const auto& run : runs)
+      for (int j = run.first; j < run.end; ++j) {
+        double d[3] = {(v.x[i] - v.x[j]) - run.shift[0], (v.y[i] - v.y[j]) - run.shift[1],
+                       (v.z[i] - v.z[j]) - run.shift[2]};
+        for (int ax = 0; ax < 3; ++ax)
+          if (image[ax]) d[ax] = v.box.minimum_image(d[ax], ax);
+        walked.push_back({j, d[0], d[1], d[2]});
+      }
+    ASSERT_TRUE(scan == walked) << what << ": particle " << i << ", " << scan.size()
+                                << " candidates scanned, " << walked.size() << " walked";
+    ++checked;
+  }
+  EXPECT_GT(checked, 100) << what;
+}
+
+TEST(HalfList, CellRunsAreTheCandidateScan) {
+  Case reflective, short_axis, fine, skin;
+  reflective.periodic[2] = false;
+  short_axis.length[1] = 3.5;
+  short_axis.length[2] = 2.5;
+  fine.reach = 2;
+  skin.skin = 0.3;
+  for (const auto& [c, what] :
+       {std::pair{Case{}, "periodic box"}, std::pair{reflective, "reflective z"},
+        std::pair{short_axis, "short axes"}, std::pair{fine, "2 cells per rc"},
+        std::pair{skin, "skin 0.3"}}) {
+    System a(c);
+    expect_cell_runs_are_the_candidate_scan(a, what);
+  }
+  SplitSystem split(Case{});
+  expect_cell_runs_are_the_candidate_scan(split, "a frozen part");
+}
+
 TEST(HalfList, TheThreadCountChangesNoBit) {
   std::vector<System> runs;
   for (int threads : {1, 2, 3}) {
