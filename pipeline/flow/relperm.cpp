@@ -55,6 +55,7 @@ struct RelpermSetup {
   std::optional<Value> viscosity, k_abs;  // from --viscosity / --sweep
   nlohmann::json sweep_record;            // what --sweep said, for the summary
   double largest_radius = 0;              // of the drainage map (rc)
+  nlohmann::json warmup;                  // the warm-up and where it came from (sweep_warmup)
 };
 
 void check_saturations(const std::string& where, std::vector<double> s) {
@@ -332,6 +333,7 @@ nlohmann::json summary_of(const std::vector<RelpermRun>& runs, const RelpermSetu
       {"wall_seconds", meter.seconds()},
       {"outputs", {"relperm.csv", "relperm_blocks.csv", "relperm.json", "relperm.png"}},
       {"scene", s.scene.source_text}};
+  j["steady_state"]["warmup"] = s.warmup;
   if (!s.sweep_record.is_null()) j["sweep"] = s.sweep_record;
   if (s.viscosity) j["viscosity"] = json_of(*s.viscosity);
   if (s.c.write_states) j["outputs"].push_back("states/");
@@ -420,7 +422,8 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
                       ": the drainage placement needs the sample's solid grid ([solid] in "
                       "the scene, as rockprep run --layout permeability writes it); or use "
                       "--placement random");
-  RelpermSetup s{scene, c, c.sweep.run, 0, 0, 0, 0, 0, 0, PermeabilityUnits(scene), {}, {}, {}, 0};
+  RelpermSetup s{scene, c,  c.sweep.run, 0, 0, 0, 0, 0, 0, PermeabilityUnits(scene),
+                 {},    {}, {},          0, {}};
   const std::uint32_t driven = driven_types_of(scene, c.sweep, where);
   if ((driven & (driven - 1)) != 0)
     throw ConfigError(where +
@@ -452,6 +455,17 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
   for (size_t k = 0; k + 1 < scene.stages.size(); ++k)
     o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
   o.viscosity = s.viscosity ? s.viscosity->mean : 1.0;  // kr does not need it
+  // The warm-up from the sample's pores needs nu = mu / n_f: only with a viscosity known.
+  if (!c.sweep.warmup_from_pores || s.viscosity)
+    s.warmup = sweep_warmup(scene, c.sweep, o);
+  else
+    s.warmup = {{"steps", o.warmup_steps},
+                {"source", "the default: no viscosity to scale it by (--viscosity or --sweep)"}};
+  if (c.sweep.warmup_from_pores && c.sweep.progress) {
+    clear_progress_line(std::cerr);
+    std::cerr << "rockflow relperm: warm-up " << o.warmup_steps << " steps per run ("
+              << s.warmup.at("source").get<std::string>() << "; --warmup sets it)\n";
+  }
   // Every run's options, checked before any step.
   o.driven_types = driven | (1u << s.nonwetting);
   o.phases = {1u << s.wetting, 1u << s.nonwetting};

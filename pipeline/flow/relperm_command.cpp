@@ -88,8 +88,9 @@ FlowCommand add_relperm_command(CLI::App& rockflow) {
                   "the fluid's number density (default: the scene's)");
   sub->add_option("--viscosity", a->viscosity, "the fluid's viscosity (for k in rc^2 and mD)");
   sub->add_option("--viscosity-error", a->viscosity_error, "its standard error");
-  sub->add_option("--warmup", run.warmup_steps, "steps before blocks start, per run")
-      ->capture_default_str();
+  sub->add_option("--warmup", run.warmup_steps,
+                  "steps before blocks start, per run (default: from the sample's median pore "
+                  "when rockprep recorded it and the viscosity is known, at least 2000)");
   sub->add_option("--block-steps", run.block_steps, "steps per averaging block")
       ->capture_default_str();
   sub->add_option("--window", run.window, "blocks per half of the steady-state test")
@@ -98,7 +99,8 @@ FlowCommand add_relperm_command(CLI::App& rockflow) {
       ->capture_default_str();
   sub->add_option("--measure-blocks", run.measure_blocks, "blocks measured once steady")
       ->capture_default_str();
-  sub->add_option("--max-steps", run.max_steps, "most steps per run")->capture_default_str();
+  sub->add_option("--max-steps", run.max_steps,
+                  "most steps per run (default: 100000, longer by what the pores' warm-up adds)");
   sub->add_flag("--side-by-side", run.side_by_side,
                 "run every saturation at once (on the GPU the runs overlap)");
   sub->add_flag("--no-states", a->no_states, "do not write states/ (the phases at the end)");
@@ -109,6 +111,8 @@ FlowCommand add_relperm_command(CLI::App& rockflow) {
               throw ConfigError("relperm runs on one rank: not under mpirun");
             const Scene scene = load_scene(a->scene);
             RelpermCommand rc = a->rc;
+            rc.sweep.warmup_from_pores = sub->count("--warmup") == 0;
+            rc.sweep.max_steps_from_warmup = sub->count("--max-steps") == 0;
             rc.saturations = parse_number_list(a->saturations, "relperm: --saturations");
             check_memory_for(
                 scene, so,

@@ -186,6 +186,8 @@ TEST(RelpermCli, TinySlitWritesItsCurvesAndStates) {
   EXPECT_NE(r.out.find("relative permeability (drainage placement"), std::string::npos) << r.out;
   const auto j = nlohmann::json::parse(mesorock::test::read_file(dir / "out" / "relperm.json"));
   EXPECT_EQ(j.at("placement"), "drainage");
+  EXPECT_EQ(j.at("steady_state").at("warmup").at("source"), "given");
+  EXPECT_EQ(j.at("steady_state").at("warmup_steps").get<int>(), 100);
   EXPECT_EQ(j.at("phases").at("A_WN").get<double>(), -30.0);
   EXPECT_EQ(j.at("phases").at("A_SN").get<double>(), -40.0);  // neutral by default
   const auto& runs = j.at("runs");
