@@ -251,14 +251,16 @@ class HalfList {
               near.push_if(j, keep & !both_frozen);
               frozen_pairs.push_if(j, keep & both_frozen);
             };
-            if ((frozen_i || ghost_i) && any_image)
-              scan_runs<true>(v, i, b.runs, image, keep_sorted);
-            else if (frozen_i || ghost_i)
-              scan_runs<false>(v, i, b.runs, image, keep_sorted);
-            else if (any_image)
-              scan_runs<true>(v, i, b.runs, image, keep_near);
+            auto scan = [&](auto&& keep) {
+              if (any_image)
+                scan_runs<true>(v, i, b.runs, image, keep);
+              else
+                scan_runs<false>(v, i, b.runs, image, keep);
+            };
+            if (frozen_i || ghost_i)
+              scan(keep_sorted);
             else
-              scan_runs<false>(v, i, b.runs, image, keep_near);
+              scan(keep_near);
             b.force_ends.push_back(near.size());
             near.append(frozen_pairs);
           }

@@ -456,16 +456,7 @@ nlohmann::json run_relperm_command(const Scene& scene, const RelpermCommand& c) 
     o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
   o.viscosity = s.viscosity ? s.viscosity->mean : 1.0;  // kr does not need it
   // The warm-up from the sample's pores needs nu = mu / n_f: only with a viscosity known.
-  if (!c.sweep.warmup_from_pores || s.viscosity)
-    s.warmup = sweep_warmup(scene, c.sweep, o);
-  else
-    s.warmup = {{"steps", o.warmup_steps},
-                {"source", "the default: no viscosity to scale it by (--viscosity or --sweep)"}};
-  if (c.sweep.warmup_from_pores && c.sweep.progress) {
-    clear_progress_line(std::cerr);
-    std::cerr << "rockflow relperm: warm-up " << o.warmup_steps << " steps per run ("
-              << s.warmup.at("source").get<std::string>() << "; --warmup sets it)\n";
-  }
+  s.warmup = sweep_warmup(scene, c.sweep, o, "rockflow relperm", s.viscosity.has_value());
   // Every run's options, checked before any step.
   o.driven_types = driven | (1u << s.nonwetting);
   o.phases = {1u << s.wetting, 1u << s.nonwetting};

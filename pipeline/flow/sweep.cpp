@@ -405,12 +405,19 @@ std::optional<double> median_pore_diameter_of(const Scene& scene) {
   return std::nullopt;
 }
 
-nlohmann::json sweep_warmup(const Scene& scene, const SweepCommand& c, SweepOptions& o) {
+namespace {
+
+// sweep_warmup's choice: the record, with o.warmup_steps and o.max_steps set.
+nlohmann::json choose_warmup(const Scene& scene, const SweepCommand& c, SweepOptions& o,
+                             bool viscosity_known) {
   if (!c.warmup_from_pores) return {{"steps", o.warmup_steps}, {"source", "given"}};
   const std::optional<double> d = median_pore_diameter_of(scene);
   if (!d)
     return {{"steps", o.warmup_steps},
             {"source", "the default: the sample records no pore sizes (rockprep run writes them)"}};
+  if (!viscosity_known)
+    return {{"steps", o.warmup_steps},
+            {"source", "the default: no viscosity to scale it by (--viscosity or --sweep)"}};
   const double nu = o.viscosity / o.fluid_density;  // m = 1
   const std::uint64_t pores = viscous_warmup_steps(*d, nu, o.dt, 0);
   const std::uint64_t steps = std::max(pores, o.warmup_steps);
@@ -430,6 +437,19 @@ nlohmann::json sweep_warmup(const Scene& scene, const SweepCommand& c, SweepOpti
           {"rule",
            "relaxations x d^2 / (pi^2 nu) in steps of dt, rounded up to 100, at least the "
            "default warm-up"}};
+}
+
+}  // namespace
+
+nlohmann::json sweep_warmup(const Scene& scene, const SweepCommand& c, SweepOptions& o,
+                            const std::string& tool, bool viscosity_known) {
+  const nlohmann::json warmup = choose_warmup(scene, c, o, viscosity_known);
+  if (c.warmup_from_pores && c.progress) {
+    clear_progress_line(std::cerr);
+    std::cerr << tool << ": warm-up " << o.warmup_steps << " steps ("
+              << warmup.at("source").get<std::string>() << "; --warmup sets it)\n";
+  }
+  return warmup;
 }
 
 // The types the sweep drives: --types, else the scene's body-force types, else every mobile one.
@@ -858,11 +878,6 @@ nlohmann::json run_sweep_command(const Scene& scene, const SweepCommand& c) {
     o.prepare.emplace_back(scene.stages[k].steps, scene.stages[k].dt);
   const nlohmann::json viscosity = sweep_viscosity(scene, c, where, o, meter);
   const nlohmann::json warmup = sweep_warmup(scene, c, o);
-  if (c.warmup_from_pores && c.progress) {
-    clear_progress_line(std::cerr);
-    std::cerr << "rockflow sweep: warm-up " << o.warmup_steps << " steps per point ("
-              << warmup.at("source").get<std::string>() << "; --warmup sets it)\n";
-  }
 
   const std::vector<SweepPoint> points = run_sweep(sample, o);
   const SweepFits fits = fit_sweep(points, o.viscosity, o.viscosity_error);

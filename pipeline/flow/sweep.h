@@ -170,10 +170,13 @@ std::uint64_t viscous_warmup_steps(double pore_diameter, double kinematic_viscos
 std::optional<double> median_pore_diameter_of(const Scene& scene);
 
 // The warm-up of a sweep whose --warmup was not given (SweepCommand::warmup_from_pores): from the
-// median pore and nu = mu / n_f (the viscosity must be known), or the default when the sample
-// records no pore sizes. Sets options.warmup_steps (and max_steps); returns the choice's record
-// for the summary ("steady_state": {"warmup"}).
-nlohmann::json sweep_warmup(const Scene& scene, const SweepCommand& command, SweepOptions& options);
+// median pore and nu = mu / n_f, or the default when the sample records no pore sizes or
+// options.viscosity is a stand-in (viscosity_known false: `rockflow relperm` without one). Sets
+// options.warmup_steps (and max_steps), says so on stderr under `tool`'s name (with progress on),
+// and returns the choice's record for the summary ("steady_state": {"warmup"}).
+nlohmann::json sweep_warmup(const Scene& scene, const SweepCommand& command, SweepOptions& options,
+                            const std::string& tool = "rockflow sweep",
+                            bool viscosity_known = true);
 
 // What a scene says about the fluid a sweep drives (shared with `rockflow relperm`). The driven
 // types: --types, else the scene's body-force types, else every mobile one.

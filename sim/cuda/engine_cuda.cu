@@ -1666,12 +1666,12 @@ class CudaEngine final : public Engine<Real>,
   int select(DeviceBuffer<unsigned char>& flag, DeviceBuffer<int>& out) {
     out.set_size(static_cast<size_t>(n_ > 0 ? n_ : 1));
     selected_.set_size(1);
+    size_selection(n_, select_temp_);
     select_flagged(flag.get(), n_, out.get(), selected_.get(), select_temp_);
     std::vector<int> count;
     selected_.download(count);
     return count[0];
   }
-  // The same on the stream, the count left in device memory at *count; CUB's scratch in `temp`.
   // CUB's scratch for a selection among m flags, grown in `temp` when it must (a captured step
   // must find it grown: the corrector's is sized at the full sort, update_penetration_mask).
   static void size_selection(int m, DeviceBuffer<unsigned char>& temp) {
@@ -1683,9 +1683,10 @@ class CudaEngine final : public Engine<Real>,
     bytes = std::max<size_t>(bytes, 1);
     if (temp.size() < bytes) temp.set_size(bytes);
   }
+  // The selection on the stream, the count left in device memory at *count, with `temp` sized
+  // by size_selection beforehand (not here: the corrector selects every step).
   void select_flagged(const unsigned char* flag, int m, int* out, int* count,
                       DeviceBuffer<unsigned char>& temp) {
-    size_selection(m, temp);
     size_t bytes = temp.size();
     check(cub::DeviceSelect::Flagged(temp.get(), bytes, thrust::counting_iterator<int>(0), flag,
                                      out, count, m),
