@@ -27,6 +27,8 @@ if [ "${TESTS:-1}" = 1 ]; then
   echo "unit_sim rc=$? $(grep -E '^\[  (PASSED|FAILED)' $W/unit_sim.txt | tr '\n' ' ')"
   grep -E "^\[  FAILED" $W/unit_gpu.txt $W/unit_sim.txt | head
 fi
+# The 100^3 scenes, for the sections that use them.
+[ "${BURIED:-1}${RUNS:-1}${PRECISION:-1}" = 000 ] ||
 for r in 05 085; do
   extra=(); [ $r = 05 ] && extra=(--rc-per-voxel 0.5)
   $B/rockprep run .carry/rock/berea_100_to_300.npz --labels true=pore,false=solid \
@@ -98,7 +100,8 @@ fi
 # beside the bulk liquid of its mobile count, ROUNDS times. RES_BINS may name timing-bound builds
 # (build_bundle.sh VARIANTS="bsums:-DMESOROCK_BOUND_NO_FROZEN_SUMS ...": wrong physics on purpose,
 # sim/cuda/engine_cuda.cu). RES_SWITCHES runs each binary once per set of bench switches, the sets
-# separated by ";" (RES_SWITCHES="--penetration-mask on;--penetration-mask off"). RES_PROFILE=1
+# separated by ";" (RES_SWITCHES="--penetration-mask on;--penetration-mask off"; a binary
+# without a set's first switch skips that set). RES_PROFILE=1
 # adds rockflow's per-pass profile of each set; RES_RUN=1 runs each scene as rockprep wrote it
 # (`rockflow run`, double) beside the bulk liquid in double.
 # RES_SWEEP lists resolutions (among RESOLUTIONS) to sweep as docs/accuracy.md's resolution rows
@@ -124,6 +127,8 @@ for round in $(seq ${ROUNDS:-2}); do
   for v in $resolutions; do
     for bin in ${RES_BINS:-rockflow}; do
       for set in "${sets[@]}"; do
+        # a reference binary older than a switch runs only the sets it knows
+        [ -n "$set" ] && ! $B/$bin bench --help 2>&1 | grep -q -- "${set%% *}" && continue
         line=$(rock_bench $bin $v $set | tail -1)
         echo "resolution $v $bin${set:+ $set} r$round: $line"
       done
