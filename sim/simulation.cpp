@@ -208,8 +208,9 @@ std::unique_ptr<Engine<Real>> make_engine(const Model& model, const SimulationOp
                                  CpuEngineOptions{opt.threads, opt.frozen_part, opt.buried_part});
 #if defined(MESOROCK_HAVE_CUDA)
   return make_cuda_engine<Real>(
-      model, CudaEngineOptions{opt.device, opt.profile, opt.frozen_part, opt.buried_part,
-                               opt.graphs, opt.lanes_per_particle, opt.penetration_mask});
+      model,
+      CudaEngineOptions{opt.device, opt.profile, opt.frozen_part, opt.buried_part, opt.graphs,
+                        opt.lanes_per_particle, opt.penetration_mask, opt.frozen_density_list});
 #else
   throw DeviceError(cuda_unavailable_reason());
 #endif

@@ -46,6 +46,11 @@ struct SimulationOptions {
   // rc / 8 or more). Every bit of the result is the same; off only to measure what it saves
   // (`rockflow bench --penetration-mask off`).
   bool penetration_mask = true;
+  // CUDA backend, with the buried part: the density pass sums only the frozen particles within rd
+  // of a pore voxel (a list made at the full sort); the others, which no mobile particle can come
+  // within rd of, keep their static sums. Every bit of the result is the same; off only to
+  // measure what it saves (`rockflow bench --frozen-density-list off`).
+  bool frozen_density_list = true;
   // CUDA backend: runs of steps captured once as a CUDA graph and replayed (ARCHITECTURE.md), so
   // a small system is not bound by kernel launches. Every bit of the result is the same; off only
   // to measure what it saves (`rockflow bench --graphs off`). Runs with a reorder interval,

@@ -26,7 +26,8 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
     bool json = false, compare_cpu = false, profile = false, decompose = false;
     int reorder_every = 1, lanes = 0;
     double skin = 0;
-    std::string frozen_part = "on", buried_part = "on", graphs = "on", penetration_mask = "on";
+    std::string frozen_part = "on", buried_part = "on", graphs = "on", penetration_mask = "on",
+                frozen_density_list = "on";
     int cells_per_rc = sim::SimulationOptions{}.cells_per_cutoff;
   };
   auto a = std::make_shared<Args>();
@@ -70,6 +71,10 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
                        "CUDA, wall model: compute phi before the sort only where the frozen "
                        "walls may put it past phi_c (on), or for every mobile particle (off: only "
                        "to measure what it saves; the results are the same)");
+  add_measuring_switch(bench, "--frozen-density-list", a->frozen_density_list,
+                       "CUDA, with the buried part: sum the density of only the frozen particles "
+                       "within rd of a pore voxel (on), or of every frozen one a step visits (off: "
+                       "only to measure what it saves; the results are the same)");
   add_measuring_switch(bench, "--graphs", a->graphs,
                        "CUDA: replay runs of steps captured as CUDA graphs (on) or launch every "
                        "kernel (off: only to measure what graphs save; the results are the same)");
@@ -101,6 +106,7 @@ FlowCommand add_bench_command(CLI::App& rockflow) {
         bo.sim.buried_part = a->buried_part == "on";
         bo.sim.graphs = a->graphs == "on";
         bo.sim.penetration_mask = a->penetration_mask == "on";
+        bo.sim.frozen_density_list = a->frozen_density_list == "on";
         bo.sim.lanes_per_particle = a->lanes;
         bo.sim.cells_per_cutoff = a->cells_per_rc;
         bo.sim.reorder_every = a->reorder_every;

@@ -280,14 +280,15 @@ __device__ MESO_INLINE LaneBase<L> lane_base(int t) {
   else
     return LaneGroup<L>{t % L};
 }
+// limit: the slots the lane fills, none for a frozen particle (its force pass replays nothing).
 template <int L>
 struct RecordingLanes : LaneBase<L> {
   LaneList list;
   int thread;
+  int limit;
   mutable int count = 0;
   __device__ void record(int j) const {
-    if (count < lane_list_capacity(L))
-      list.slots[static_cast<std::size_t>(count) * list.threads + thread] = j;
+    if (count < limit) list.slots[static_cast<std::size_t>(count) * list.threads + thread] = j;
     ++count;
   }
 };
@@ -303,14 +304,24 @@ struct ReplayingLanes : LaneBase<L> {
   }
 };
 
-// The gather passes with L threads per particle: particle t / L, lane t % L. The sums pass
-// records each lane's neighbours in `list`; the force pass replays them (kReplay) or scans.
+// The particles of a sums pass: the first `first` stored ones, then first + listed[k] for
+// k < count - first (the frozen density list; without one, first = count = the particles a
+// step visits).
+struct SumsRange {
+  int first = 0;
+  int count = 0;
+  const int* listed = nullptr;
+};
+// The gather passes with L threads per particle: the p-th particle of the range for thread t,
+// p = t / L, lane t % L. The sums pass records each lane's neighbours in `list` at its thread;
+// the force pass replays them (kReplay) or scans.
 template <int L, class Real, class Body>
-__global__ void for_each_lanes_kernel(StepView<Real> v, Body body, LaneList list) {
+__global__ void for_each_lanes_kernel(StepView<Real> v, Body body, LaneList list, SumsRange r) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
-  const int i = t / L;
-  if (i >= v.n) return;
-  const RecordingLanes<L> lanes{lane_base<L>(t), list, t};
+  const int p = t / L;
+  if (p >= r.count) return;
+  const int i = p < r.first ? p : r.first + r.listed[p - r.first];
+  const RecordingLanes<L> lanes{lane_base<L>(t), list, t, v.frozen(i) ? 0 : lane_list_capacity(L)};
   body(v, i, lanes);
   list.counts[t] = lanes.count;
 }
@@ -404,6 +415,18 @@ template <class Real, class Sums>
 __global__ void buried_sums_kernel(StepView<Real> v, int first, Sums sums) {
   const int i = first + blockIdx.x * blockDim.x + threadIdx.x;
   if (i < v.n) sums(v, i);
+}
+
+// Flags the frozen particles [first, first + count) whose density a step may change: those with
+// a pore voxel within rd (and the margin of buried()), where the solid grid's bounce keeps every
+// mobile particle. The others' sums stay the static ones (the frozen density list).
+template <class Real>
+__global__ void density_may_change_kernel(StepView<Real> v, int first, int count,
+                                          unsigned char* flag) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= count) return;
+  const int i = first + k;
+  flag[k] = v.solid.pore_within(v.x[i], v.y[i], v.z[i], v.rd + Real(0.001));
 }
 
 // The frozen particles' static sums over their frozen neighbours (StepView::frozen_rho).
@@ -818,7 +841,8 @@ class CudaEngine final : public Engine<Real>,
         burying_(o.buried_part),
         graphs_(o.graphs),
         lanes_(o.lanes),
-        masking_(o.penetration_mask) {
+        masking_(o.penetration_mask),
+        listing_density_(o.frozen_density_list) {
     check(cudaSetDevice(device_), "cudaSetDevice");
     if (profile_)
       for (auto& e : events_) check(cudaEventCreate(&e), "cudaEventCreate");
@@ -1247,12 +1271,18 @@ class CudaEngine final : public Engine<Real>,
   // (LaneGroup), so that it has threads enough to fill the GPU.
   // Both pair passes stop before the buried part (StepView::buried_part), with the same count,
   // so that they see one neighbour-list layout.
+  // With the frozen density list (density_listed()), the sums pass visits the mobile part and
+  // the listed frozen particles, and the force pass the mobile part (a frozen particle's force is
+  // zero, set at the full sort).
   template <class Pass>
   void pair_sums(const StepView<Real>& all, Pass pass) {
     const StepView<Real> v = stepping(all);
+    const SumsRange r = density_listed() ? SumsRange{mobile_count_, mobile_count_ + density_listed_,
+                                                     density_list_.get()}
+                                         : SumsRange{v.n, v.n, nullptr};
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
-      for_each_lanes_kernel<L><<<blocks_for(L * v.n), kBlock>>>(v, pass, lane_list(L, v.n));
+      for_each_lanes_kernel<L><<<blocks_for(L * r.count), kBlock>>>(v, pass, lane_list(L, v.n), r);
       lane_list_ready_ = true;
     });
   }
@@ -1261,13 +1291,17 @@ class CudaEngine final : public Engine<Real>,
     const StepView<Real> v = stepping(all);
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
-      const int g = blocks_for(L * v.n);
+      const int g = blocks_for(L * (lane_list_ready_ && density_listed() ? mobile_count_ : v.n));
       if (lane_list_ready_)
         for_each_replaying_kernel<L><<<g, kBlock>>>(v, pass, lane_list(L, v.n));
       else
         for_each_stashed_lanes_kernel<L><<<g, kBlock, kStashBytes>>>(v, pass);
     });
     lane_list_ready_ = false;
+  }
+  // The frozen density list holds (update_density_list).
+  bool density_listed() const {
+    return !kBoundNoFrozenSums && frozen_sums_valid_ && density_list_built_;
   }
   // The particles a step's pair passes visit: all but the buried part.
   // (kBoundNoFrozenSums: the mobile part alone.)
@@ -1487,10 +1521,41 @@ class CudaEngine final : public Engine<Real>,
     }
     frozen_sums_valid_ = true;
     if constexpr (W::enabled) update_penetration_mask(frozen > 0);
-    if constexpr (C::needs_density || W::enabled)
-      if (buried_count_ > 0)
-        buried_sums_kernel<<<blocks_for(buried_count_), kBlock>>>(view(), n_ - buried_count_,
-                                                                  typename Steps::Sums{});
+    if constexpr (C::needs_density || W::enabled) {
+      update_density_list();
+      // The sums no step changes, set here once: the buried part's, and with the density list
+      // those of the frozen particles it leaves out (the listed ones' too, summed anew each step).
+      const int first = density_list_built_ ? mobile_count_ : n_ - buried_count_;
+      if (first < n_)
+        buried_sums_kernel<<<blocks_for(n_ - first), kBlock>>>(view(), first,
+                                                               typename Steps::Sums{});
+    }
+  }
+
+  // The frozen density list, after a full sort that buried (the bounce holds the mobile part in
+  // the pore): the frozen particles a step visits with a pore voxel within rd, the only ones whose
+  // density a mobile particle can change (about three quarters of them in rockprep's Berea
+  // scenes). Their indices from the frozen part's start, in storage order; the count on the host,
+  // for the launches. The frozen forces, which the force pass then leaves alone, are zeroed.
+  void update_density_list() {
+    density_list_built_ = false;
+    density_listed_ = 0;
+    const int visited = n_ - buried_count_ - mobile_count_;
+    if (!listing_density_ || !buried_part_ || visited <= 0) return;
+    density_flag_.set_size(static_cast<size_t>(visited));
+    density_list_.set_size(static_cast<size_t>(visited));
+    density_count_.set_size(1);
+    density_may_change_kernel<<<blocks_for(visited), kBlock>>>(view(), mobile_count_, visited,
+                                                               density_flag_.get());
+    size_selection(visited, density_temp_);
+    select_flagged(density_flag_.get(), visited, density_list_.get(), density_count_.get(),
+                   density_temp_);
+    check(cudaMemcpy(&density_listed_, density_count_.get(), sizeof(int), cudaMemcpyDeviceToHost),
+          "frozen density list");
+    const size_t frozen_bytes = static_cast<size_t>(n_ - mobile_count_) * sizeof(Real);
+    for (DeviceBuffer<Real>* f : {&fx_, &fy_, &fz_})
+      check(cudaMemsetAsync(f->get() + mobile_count_, 0, frozen_bytes), "frozen forces");
+    density_list_built_ = true;
   }
 
   // The penetration mask (StepView::penetration) of the frozen part just sorted: cells of
@@ -1773,6 +1838,8 @@ class CudaEngine final : public Engine<Real>,
     b += penetration_bits_.size() * sizeof(std::uint32_t) + penetration_temp_.size() +
          penetration_flag_.size() +
          (penetration_list_.size() + penetration_listed_.size()) * sizeof(int);
+    b += density_flag_.size() + density_temp_.size() +
+         (density_list_.size() + density_count_.size()) * sizeof(int);
     for (const DeviceBuffer<int>* a : {&cell_, &cell_slots_, &index_, &perm_, &cell_start_,
                                        &cell_count_, &lane_list_slots_, &lane_list_counts_})
       b += a->size() * sizeof(int);
@@ -1841,13 +1908,14 @@ class CudaEngine final : public Engine<Real>,
     add(early_count_), add(watchdog_record_), add(step_base_), add(penetration_bits_);
     add(penetration_list_), add(penetration_listed_), add(penetration_flag_),
         add(penetration_temp_);
+    add(density_list_);
     double dt = static_cast<double>(dt_);
     std::uint64_t dt_bits = 0;
     std::memcpy(&dt_bits, &dt, sizeof dt_bits);
     for (std::uint64_t x :
          {std::uint64_t(n_), std::uint64_t(mobile_count_), std::uint64_t(buried_count_),
-          std::uint64_t(ncells_), std::uint64_t(frozen_sums_valid_), std::uint64_t(tail_pending_),
-          dt_bits, epoch_})
+          std::uint64_t(density_listed()), std::uint64_t(density_listed_), std::uint64_t(ncells_),
+          std::uint64_t(frozen_sums_valid_), std::uint64_t(tail_pending_), dt_bits, epoch_})
       k.push_back(static_cast<std::uintptr_t>(x));
     return k;
   }
@@ -1956,6 +2024,9 @@ class CudaEngine final : public Engine<Real>,
         << late_steps_;
     if (split_frozen())
       s << "; cell sorts: " << full_sorts_ << " full, " << mobile_sorts_ << " of the mobile part";
+    if (density_listed())
+      s << "; frozen density list: " << density_listed_ << " of the "
+        << n_ - buried_count_ - mobile_count_ << " frozen particles a step visits";
     if (penetration_built_)
       s << "; penetration mask: cells of " << penetration_.cell[0] << " rc, "
         << 100 * penetration_share() << "% set, " << 100 * listed_share()
@@ -2041,6 +2112,14 @@ class CudaEngine final : public Engine<Real>,
   // part's last full sort; masking_: SimulationOptions::penetration_mask.
   bool masking_ = true;
   bool penetration_built_ = false;
+  // With the buried part: the frozen density list (update_density_list) of the last full sort,
+  // its flags, indices, count (on the device and here) and CUB's scratch; listing_density_:
+  // SimulationOptions::frozen_density_list.
+  bool listing_density_ = true;
+  bool density_list_built_ = false;
+  int density_listed_ = 0;
+  DeviceBuffer<unsigned char> density_flag_, density_temp_;
+  DeviceBuffer<int> density_list_, density_count_;
   PenetrationMask<Real> penetration_;
   DeviceBuffer<std::uint32_t> penetration_bits_;
   // The corrector's selection (needs_frozen_phi): the flags, the listed particles, their count,

@@ -17,6 +17,7 @@ struct CudaEngineOptions {
   bool graphs = true;
   int lanes = 0;
   bool penetration_mask = true;
+  bool frozen_density_list = true;
 };
 
 template <class Real>

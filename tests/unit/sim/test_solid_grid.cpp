@@ -415,11 +415,10 @@ TEST_P(Solid, AParticleInAPocketItCannotLeaveIsTurnedOncePerStep) {
   EXPECT_LT(fastest, 12.0);  // 6.9 left to the grid, 26 turned twice in a step
 }
 
-// The buried part (SimulationOptions::buried_part): a wall 3 rc thick filling its solid voxels,
-// under an mDPD liquid with the wall model and the bounce. Its particles farther than rc from the
-// pore leave the steps; rho, phi and the forces are those of the run that keeps them up
-// to the order of the static sums, and so are the corrections and trajectories over 30 steps.
-TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
+// A wall 3 rc thick filling its solid voxels (z in [0, 3)), under an mDPD liquid with the wall
+// model and the bounce (the pore above it, periodic in z). Random wall positions: every depth
+// occurs, so a margin that left out too much would show.
+Scenario wall_under_liquid() {
   Scenario s;
   s.model.conservative = ms::ConservativeKind::MDPD;
   s.model.seed = 12;
@@ -431,15 +430,23 @@ TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
   s.model.wall_model.enabled = true;
   s.box.hi = {6, 6, 8};
   auto mask = std::make_shared<ms::SolidMask>(empty_mask(12, 12, 16, 0.5));
-  for (int k = 0; k < 6; ++k)  // the wall: z in [0, 3), the pore above it (periodic in z)
+  for (int k = 0; k < 6; ++k)
     for (int j = 0; j < 12; ++j)
       for (int i = 0; i < 12; ++i) mask->solid[mask->index(i, j, k)] = 1;
   s.model.solid.mask = mask;
   std::int64_t next = 0;
-  // Random wall positions: every depth occurs, so a margin that buried too much would show.
   ms::fill_random(s.particles, wall, {0, 0, 0}, {6, 6, 3}, 702, 13, next);
   ms::fill_random(s.particles, fluid, {0, 0, 3.05}, {6, 6, 7.95}, 1146, 12, next);  // rho 6.5
   ms::assign_maxwell_velocities(s.particles, s.model, 1.0, 12);
+  return s;
+}
+
+// The buried part (SimulationOptions::buried_part): the wall's particles farther than rc from the
+// pore leave the steps; rho, phi and the forces are those of the run that keeps them up to the
+// order of the static sums, and so are the corrections and trajectories over 30 steps.
+TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
+  const Scenario s = wall_under_liquid();
+  const int wall = 1;
   ms::SimulationOptions on = options(), off = options();
   off.buried_part = false;
   on.threads = off.threads = 2;
@@ -469,6 +476,40 @@ TEST_P(Solid, BuriedWallParticlesChangeOnlyTheOrderOfSums) {
     ASSERT_NEAR(qa.z[i], qb.z[i], 1e-7) << "particle " << i;
     ASSERT_NEAR(qa.vx[i], qb.vx[i], 1e-5) << "particle " << i;
   }
+  EXPECT_EQ(a->solid_intrusion().inside, 0u);
+}
+
+// The frozen density list (SimulationOptions::frozen_density_list; the GPU's, the CPU ignores
+// it): the wall's particles within rc but farther than rd from the pore (z in [2, 2.25) and
+// (0.75, 1]) keep their static sums instead of summing the liquid every step. Nothing changes,
+// bit for bit: rho, phi and the forces of every particle, then 30 steps (graphs included).
+TEST_P(Solid, FrozenDensityListChangesNoBit) {
+  const Scenario s = wall_under_liquid();
+  std::uint64_t quiet = 0;  // what the list leaves out
+  for (size_t i = 0; i < s.particles.size(); ++i) {
+    const double z = s.particles.z[i];
+    quiet += s.particles.type[i] == 1 && ((z >= 2.0 && z < 2.249) || (z > 0.751 && z <= 1.0));
+  }
+  EXPECT_GT(quiet, 100u);
+  ms::SimulationOptions on = options(), off = options();
+  off.frozen_density_list = false;
+  auto a = ms::make_simulation(s.model, s.box, s.particles, 0.01, on);
+  auto b = ms::make_simulation(s.model, s.box, s.particles, 0.01, off);
+  auto same = [&](const char* when) {
+    EXPECT_EQ(a->densities(), b->densities()) << when;
+    EXPECT_EQ(a->boundary_volume_fractions(), b->boundary_volume_fractions()) << when;
+    EXPECT_EQ(a->forces(), b->forces()) << when;
+  };
+  same("after the set-up");
+  a->run(30);
+  b->run(30);
+  same("after 30 steps");
+  EXPECT_EQ(a->wall_corrections(), b->wall_corrections());
+  const ms::ParticleSet qa = a->particles(), qb = b->particles();
+  EXPECT_EQ(qa.id, qb.id);
+  EXPECT_EQ(qa.x, qb.x);
+  EXPECT_EQ(qa.z, qb.z);
+  EXPECT_EQ(qa.vy, qb.vy);
   EXPECT_EQ(a->solid_intrusion().inside, 0u);
 }
 
