@@ -1534,9 +1534,10 @@ class CudaEngine final : public Engine<Real>,
 
   // The frozen density list, after a full sort that buried (the bounce holds the mobile part in
   // the pore): the frozen particles a step visits with a pore voxel within rd, the only ones whose
-  // density a mobile particle can change (about three quarters of them in rockprep's Berea
-  // scenes). Their indices from the frozen part's start, in storage order; the count on the host,
-  // for the launches. The frozen forces, which the force pass then leaves alone, are zeroed.
+  // density a mobile particle can change (72-74% of them in the bench's Berea rock cases at 0.5
+  // and 0.85 rc per voxel, 87% at 2.0; docs/benchmarks.md). Their indices from the frozen part's
+  // start, in storage order; the count on the host, for the launches. The frozen forces, which the
+  // force pass then leaves alone, are zeroed.
   void update_density_list() {
     density_list_built_ = false;
     density_listed_ = 0;
