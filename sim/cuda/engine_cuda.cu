@@ -1543,16 +1543,10 @@ class CudaEngine final : public Engine<Real>,
     density_listed_ = 0;
     const int visited = n_ - buried_count_ - mobile_count_;
     if (!listing_density_ || !buried_part_ || visited <= 0) return;
-    density_flag_.set_size(static_cast<size_t>(visited));
-    density_list_.set_size(static_cast<size_t>(visited));
-    density_count_.set_size(1);
+    flag_a_.set_size(static_cast<size_t>(visited));
     density_may_change_kernel<<<blocks_for(visited), kBlock>>>(view(), mobile_count_, visited,
-                                                               density_flag_.get());
-    size_selection(visited, density_temp_);
-    select_flagged(density_flag_.get(), visited, density_list_.get(), density_count_.get(),
-                   density_temp_);
-    check(cudaMemcpy(&density_listed_, density_count_.get(), sizeof(int), cudaMemcpyDeviceToHost),
-          "frozen density list");
+                                                               flag_a_.get());
+    density_listed_ = select(flag_a_, density_list_, visited);
     const size_t frozen_bytes = static_cast<size_t>(n_ - mobile_count_) * sizeof(Real);
     for (DeviceBuffer<Real>* f : {&fx_, &fy_, &fz_})
       check(cudaMemsetAsync(f->get() + mobile_count_, 0, frozen_bytes), "frozen forces");
@@ -1619,10 +1613,10 @@ class CudaEngine final : public Engine<Real>,
     flag_a_.set_size(static_cast<size_t>(n_));
     flag_b_.set_size(static_cast<size_t>(n_));
     migrate_flag_kernel<<<g, kBlock>>>(view(), region, flag_a_.get(), flag_b_.get());
-    const int kept = select(flag_a_, perm_);
+    const int kept = select(flag_a_, perm_, n_);
     const int leaving = n_ - ghost_count_ - kept;
     if (leaving > 0) {
-      select(flag_b_, index_);
+      select(flag_b_, index_, n_);
       migrants_.set_size(static_cast<size_t>(leaving));
       pack_migrants_kernel<<<blocks_for(leaving), kBlock>>>(view(), index_.get(), leaving,
                                                             migrants_.get());
@@ -1661,7 +1655,7 @@ class CudaEngine final : public Engine<Real>,
     flag_a_.set_size(static_cast<size_t>(n_));
     for (size_t b = 0; b < boxes.size(); ++b) {
       ghost_flag_kernel<<<blocks_for(n_), kBlock>>>(view(), boxes[b], flag_a_.get());
-      const int m = select(flag_a_, index_);
+      const int m = select(flag_a_, index_, n_);
       counts[b] = m;
       if (m == 0) continue;
       ghosts_out_.set_size(static_cast<size_t>(total + m));
@@ -1728,12 +1722,13 @@ class CudaEngine final : public Engine<Real>,
   }
 
  private:
-  // Indices i with flag[i] = 1, in order (CUB's stable selection), into `out`; returns how many.
-  int select(DeviceBuffer<unsigned char>& flag, DeviceBuffer<int>& out) {
-    out.set_size(static_cast<size_t>(n_ > 0 ? n_ : 1));
+  // Indices i < m with flag[i] = 1, in order (CUB's stable selection), into `out`; returns how
+  // many. Host-synchronising: for the full sort and the decomposition's exchanges, not a step.
+  int select(DeviceBuffer<unsigned char>& flag, DeviceBuffer<int>& out, int m) {
+    out.set_size(static_cast<size_t>(m > 0 ? m : 1));
     selected_.set_size(1);
-    size_selection(n_, select_temp_);
-    select_flagged(flag.get(), n_, out.get(), selected_.get(), select_temp_);
+    size_selection(m, select_temp_);
+    select_flagged(flag.get(), m, out.get(), selected_.get(), select_temp_);
     std::vector<int> count;
     selected_.download(count);
     return count[0];
@@ -1839,8 +1834,8 @@ class CudaEngine final : public Engine<Real>,
     b += penetration_bits_.size() * sizeof(std::uint32_t) + penetration_temp_.size() +
          penetration_flag_.size() +
          (penetration_list_.size() + penetration_listed_.size()) * sizeof(int);
-    b += density_flag_.size() + density_temp_.size() +
-         (density_list_.size() + density_count_.size()) * sizeof(int);
+    b += density_list_.size() * sizeof(int) + flag_a_.size() + flag_b_.size() +
+         select_temp_.size() + selected_.size() * sizeof(int);  // select()'s scratch
     for (const DeviceBuffer<int>* a : {&cell_, &cell_slots_, &index_, &perm_, &cell_start_,
                                        &cell_count_, &lane_list_slots_, &lane_list_counts_})
       b += a->size() * sizeof(int);
@@ -2073,7 +2068,8 @@ class CudaEngine final : public Engine<Real>,
   DeviceBuffer<double> slab_partials_;
   DeviceBuffer<unsigned int> count_;
   DeviceBuffer<std::uint64_t> injection_best_, injection_counts_;  // injection only
-  // A decomposed run's (sim/domain) exchange buffers; empty otherwise.
+  // A decomposed run's (sim/domain) exchange buffers; empty otherwise. flag_a_, select_temp_ and
+  // selected_ are select()'s scratch, also for the full sort's frozen density list.
   int ghost_count_ = 0, send_count_ = 0;
   DeviceBuffer<unsigned char> flag_a_, flag_b_, select_temp_;
   DeviceBuffer<int> selected_, slot_index_, send_box_;
@@ -2114,13 +2110,12 @@ class CudaEngine final : public Engine<Real>,
   bool masking_ = true;
   bool penetration_built_ = false;
   // With the buried part: the frozen density list (update_density_list) of the last full sort,
-  // its flags, indices, count (on the device and here) and CUB's scratch; listing_density_:
-  // SimulationOptions::frozen_density_list.
+  // its indices and their count (flagged and selected through the selection scratch below);
+  // listing_density_: SimulationOptions::frozen_density_list.
   bool listing_density_ = true;
   bool density_list_built_ = false;
   int density_listed_ = 0;
-  DeviceBuffer<unsigned char> density_flag_, density_temp_;
-  DeviceBuffer<int> density_list_, density_count_;
+  DeviceBuffer<int> density_list_;
   PenetrationMask<Real> penetration_;
   DeviceBuffer<std::uint32_t> penetration_bits_;
   // The corrector's selection (needs_frozen_phi): the flags, the listed particles, their count,
