@@ -280,15 +280,19 @@ __device__ MESO_INLINE LaneBase<L> lane_base(int t) {
   else
     return LaneGroup<L>{t % L};
 }
-// limit: the slots the lane fills, none for a frozen particle (its force pass replays nothing).
-template <int L>
+// The slots a lane fills: lane_list_capacity(L); with kListed (a sums range with the frozen
+// density list) `limit`, none for a frozen particle (its force pass replays nothing). Without a
+// list the bound stays a constant: the runtime one cost the 20,000-particle bulk liquid 8% of
+// its step on an H100 (docs/benchmarks.md, "Issue 24's acceptance in one call").
+template <int L, bool kListed>
 struct RecordingLanes : LaneBase<L> {
   LaneList list;
   int thread;
   int limit;
   mutable int count = 0;
   __device__ void record(int j) const {
-    if (count < limit) list.slots[static_cast<std::size_t>(count) * list.threads + thread] = j;
+    if (count < (kListed ? limit : lane_list_capacity(L)))
+      list.slots[static_cast<std::size_t>(count) * list.threads + thread] = j;
     ++count;
   }
 };
@@ -315,13 +319,17 @@ struct SumsRange {
 // The gather passes with L threads per particle: the p-th particle of the range for thread t,
 // p = t / L, lane t % L. The sums pass records each lane's neighbours in `list` at its thread;
 // the force pass replays them (kReplay) or scans.
-template <int L, class Real, class Body>
+template <int L, bool kListed, class Real, class Body>
 __global__ void for_each_lanes_kernel(StepView<Real> v, Body body, LaneList list, SumsRange r) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int p = t / L;
   if (p >= r.count) return;
-  const int i = p < r.first ? p : r.first + r.listed[p - r.first];
-  const RecordingLanes<L> lanes{lane_base<L>(t), list, t, v.frozen(i) ? 0 : lane_list_capacity(L)};
+  int i = p, limit = lane_list_capacity(L);
+  if constexpr (kListed) {
+    if (p >= r.first) i = r.first + r.listed[p - r.first];
+    if (v.frozen(i)) limit = 0;
+  }
+  const RecordingLanes<L, kListed> lanes{lane_base<L>(t), list, t, limit};
   body(v, i, lanes);
   list.counts[t] = lanes.count;
 }
@@ -1282,7 +1290,11 @@ class CudaEngine final : public Engine<Real>,
                                          : SumsRange{v.n, v.n, nullptr};
     with_lanes(v.n, [&](auto lanes) {
       constexpr int L = decltype(lanes)::value;
-      for_each_lanes_kernel<L><<<blocks_for(L * r.count), kBlock>>>(v, pass, lane_list(L, v.n), r);
+      const dim3 grid(blocks_for(L * r.count));
+      if (r.listed)
+        for_each_lanes_kernel<L, true><<<grid, kBlock>>>(v, pass, lane_list(L, v.n), r);
+      else
+        for_each_lanes_kernel<L, false><<<grid, kBlock>>>(v, pass, lane_list(L, v.n), r);
       lane_list_ready_ = true;
     });
   }
