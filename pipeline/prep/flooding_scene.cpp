@@ -187,6 +187,12 @@ std::string permeability_scene_toml(const packing::PermeabilityLayout& L,
   s << "[[output.regions]]\nname = \"block\"\nlo = " << vec({0, 0, 0})
     << "\nhi = " << vec(L.block_extent) << "\nevery = " << p.region_every << "\ntypes = ["
     << quoted(p.fluid_type) << "]\n\n";
+  // Mirrored: also the whole box, whose flow rate is the flux rockflow sweep measures. At no
+  // force the block and its mirror image carry slow opposite flows that the box's sum cancels
+  // (docs/permeability.md, "The block region at no force").
+  if (L.mirrored)
+    s << "[[output.regions]]\nname = \"box\"\nlo = " << vec(L.box.lo) << "\nhi = " << vec(L.box.hi)
+      << "\nevery = " << p.region_every << "\ntypes = [" << quoted(p.fluid_type) << "]\n\n";
   if (p.nm_per_rc > 0) s << "[units]\nnm_per_rc = " << num(p.nm_per_rc) << "\n";
   return s.str();
 }

@@ -126,7 +126,9 @@ struct RunArgs {
   // periodic box, one fluid type driven by a body force.
   std::string layout = "flooding";
   bool no_mirror = false;
-  double body_force = 0.02;
+  // NaN: the top of the forces suggested for rockflow sweep (g d^2 = 2.29 for the median pore),
+  // so that the scene's own flow stage shows a flux above its thermal noise at any resolution.
+  double body_force = std::nan("");
   std::uint64_t flow_steps = 2000;
   // Options of one layout only, when given: an error with the other layout.
   std::vector<const CLI::Option*> flooding_only, permeability_only;
@@ -247,7 +249,7 @@ RunPlan plan_run(const RunArgs& a) {
   if (permeability) {
     const std::string o = first_given(a.flooding_only);
     if (!o.empty()) throw ConfigError("run: " + o + " belongs to --layout flooding");
-    if (!std::isfinite(a.body_force) || !(a.body_force > 0))
+    if (!std::isnan(a.body_force) && !(std::isfinite(a.body_force) && a.body_force > 0))
       throw ConfigError("run: --body-force must be a positive number");
   } else {
     const std::string o = first_given(a.permeability_only);
@@ -671,16 +673,23 @@ PackedBlock pack_block(const RunContext& c, const BlockScale& b, RunLayout& l,
   return packed;
 }
 
-// The --forces that rockprep suggests for rockflow sweep: from the block's median pore
+// The forces that rockprep suggests for rockflow sweep: from the block's median pore
 // (suggested_sweep_forces), or a fixed list when its pore sizes are unknown.
-std::string suggested_forces(const RunContext& c) {
+std::array<double, 4> suggested_force_list(const RunContext& c) {
   const nlohmann::json& sizes = c.record.value("pore_sizes", nlohmann::json::object());
   if (!sizes.contains("median_rc") || !(sizes["median_rc"].get<double>() > 0))
-    return "0.01,0.02,0.03,0.04";
+    return {0.01, 0.02, 0.03, 0.04};
+  return suggested_sweep_forces(sizes["median_rc"].get<double>());
+}
+std::string suggested_forces(const RunContext& c) {
   std::string list;
-  for (double g : suggested_sweep_forces(sizes["median_rc"].get<double>()))
-    list += (list.empty() ? "" : ",") + fmt(g, 3);
+  for (double g : suggested_force_list(c)) list += (list.empty() ? "" : ",") + fmt(g, 3);
   return list;
+}
+// The scene's body force: --body-force, else the top suggested force as printed (3 digits).
+double scene_body_force(const RunContext& c) {
+  if (!std::isnan(c.args.body_force)) return c.args.body_force;
+  return std::stod(fmt(suggested_force_list(c).back(), 3));
 }
 
 // The scene file's header comment: what the set-up is and how to run it.
@@ -734,7 +743,7 @@ PermeabilitySceneParams scene_params(const RunContext& c, const BlockScale& b,
   sp.region_every = a.region_every;
   sp.snapshot_every = a.snapshot_every;
   sp.nm_per_rc = b.nm_per_rc;
-  sp.body_force = a.body_force;
+  sp.body_force = scene_body_force(c);
   sp.flow_steps = a.flow_steps;
   sp.comment = scene_comment(c, c.plan.permeability);
   return sp;
@@ -774,7 +783,8 @@ void record_parameters(const RunContext& c, const BlockScale& b,
   nlohmann::json& parameters = c.record["parameters"];
   if (c.plan.permeability) {
     parameters["mirror"] = !a.no_mirror;
-    parameters["body_force"] = a.body_force;
+    parameters["body_force"] = sp.body_force;
+    parameters["body_force_from"] = std::isnan(a.body_force) ? "median pore" : "--body-force";
     parameters["stages"] = {{"relax", a.relax_steps}, {"flow", a.flow_steps}};
   } else {
     parameters["inlet_rc"] = a.inlet_rc;
@@ -937,7 +947,10 @@ void print_summary(const RunContext& c, const RunLayout& l, const ParticleRoles&
   std::cout << "rockprep: " << s.str() << "\n";
   if (permeability)
     std::cout << "rockprep: next: rockflow sweep " << (out / "scene.toml").string()
-              << " --out OUT --forces " << suggested_forces(c) << "\n";
+              << " --out OUT --forces " << suggested_forces(c) << "\n"
+              << "rockprep: or watch it flow: rockflow run " << (out / "scene.toml").string()
+              << " --out OUT (body force " << scene_body_force(c) << " along " << a.flow_axis
+              << ", " << a.flow_steps << " steps)\n";
   else
     std::cout << "rockprep: next: rockflow run " << (out / "scene.toml").string() << " --out OUT\n";
 }
@@ -1009,8 +1022,10 @@ Command add_run_command(CLI::App& rockprep) {
       app->add_flag("--no-mirror", a->no_mirror,
                     "permeability: do not mirror the block along the flow axis (for a block "
                     "that is periodic already)"),
-      app->add_option("--body-force", a->body_force,
-                      "permeability: the fluid's body force along the flow axis (default 0.02)"),
+      app->add_option(
+          "--body-force", a->body_force,
+          "permeability: the fluid's body force along the flow axis (default: the top force "
+          "suggested for rockflow sweep, 2.29 / d^2 for the median pore d in rc)"),
       app->add_option("--flow-steps", a->flow_steps,
                       "permeability: scene's flow stage after the relax stage (default 2000)")};
   app->add_option("--wall-thickness-rc", a->wall_thickness_rc,

@@ -11,11 +11,8 @@
 # Each comparison ROUNDS times (default 2), alternating. Bundle as for where_users_run.sh
 # (scripts/gpu/build_bundle.sh with ROCKPREP=1; the image in .carry/rock, never committed).
 set -uo pipefail
-cd "$(dirname "$0")/../.."
-export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
-mkdir -p .carry/gpu/bin && tar xJf .carry/gpu/bins.tar.xz -C .carry/gpu/bin
-mkdir -p /tmp/rockprep-libs && tar xJf .carry/gpu/rockprep-libs.tar.xz -C /tmp/rockprep-libs
-B=$PWD/.carry/gpu/bin; O=${OUT:-/tmp/out}; W=/tmp/acc; mkdir -p $O $W
+. "$(dirname "$0")/bundle_env.sh"
+W=/tmp/acc; mkdir -p $W
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee $O/gpu.txt
 cat .carry/gpu/COMMIT | tee -a $O/gpu.txt
 echo "host: $(nproc) cores"
@@ -24,10 +21,9 @@ prep() {  # prep OUT CROP CACHE [rockprep options]: one timed rockprep run
   local out=$1 crop=$2 cache=$3 t
   shift 3
   t=$(date +%s.%N)
-  $B/rockprep run .carry/rock/berea_100_to_300.npz --labels true=pore,false=solid \
-    --crop $crop --spacing 5.345,5.345,5.345 --unit um --layout permeability \
-    --threads $(nproc) --seed 7 --tile-cache $cache "$@" --out $out > $W/prep.log 2>&1
-  echo "rc=$? $(seconds_since $t) s: $(grep summary $W/prep.log | tail -1)"
+  berea_prep $crop $out --seed 7 --tile-cache $cache "$@"
+  cp $out.log $W/prep.log
+  echo "$(seconds_since $t) s: $(grep summary $W/prep.log | tail -1)"
 }
 # 1. rockprep: empty cache, warm cache, for the issue's scene and rockprep's own resolution.
 for v in 0.5 auto; do

@@ -12,11 +12,8 @@
 # each comparison once instead of twice; RESOLUTION=0 skips the resolution series. Without
 # rockflow-old in the bundle the runs and sweeps use the new binary alone.
 set -uo pipefail
-cd "$(dirname "$0")/../.."
-export LD_LIBRARY_PATH=$PWD/.carry/gpu/lib:/tmp/rockprep-libs
-mkdir -p .carry/gpu/bin && tar xJf .carry/gpu/bins.tar.xz -C .carry/gpu/bin
-mkdir -p /tmp/rockprep-libs && tar xJf .carry/gpu/rockprep-libs.tar.xz -C /tmp/rockprep-libs
-B=$PWD/.carry/gpu/bin; O=${OUT:-/tmp/out}; W=/tmp/r16; mkdir -p $O $W
+. "$(dirname "$0")/bundle_env.sh"
+W=/tmp/r16; mkdir -p $W
 bins="rockflow-old rockflow"; [ -x $B/rockflow-old ] || bins=rockflow
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader | tee $O/gpu.txt
 cat .carry/gpu/COMMIT | tee -a $O/gpu.txt

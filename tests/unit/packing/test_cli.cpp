@@ -214,6 +214,9 @@ TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   EXPECT_NE(r.out.find("next: rockflow sweep"), std::string::npos) << r.out;
   const auto run = nlohmann::json::parse(mesorock::test::read_file(tmp / "perm" / "run.json"));
   EXPECT_EQ(run["parameters"]["layout"], "permeability");
+  EXPECT_EQ(run["parameters"]["body_force"], 0.03);
+  EXPECT_EQ(run["parameters"]["body_force_from"], "--body-force");
+  EXPECT_NE(r.out.find("or watch it flow: rockflow run"), std::string::npos) << r.out;
   EXPECT_EQ(run["layout"]["kind"], "permeability");
   EXPECT_TRUE(run["layout"]["mirrored"].get<bool>());
   // The pore sizes travel with the particles (rockflow sweep's default warm-up), and the
@@ -242,6 +245,13 @@ TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   EXPECT_TRUE(scene.model.rigid_slabs.empty());
   EXPECT_TRUE(scene.model.virtual_walls.empty());
   EXPECT_TRUE(scene.model.wall_model.enabled);
+  // Regions: the block (the first copy) and, mirrored, the whole box (the sweep's flux).
+  ASSERT_EQ(scene.output.regions.size(), 2u);
+  EXPECT_EQ(scene.output.regions[0].name, "block");
+  EXPECT_DOUBLE_EQ(scene.output.regions[0].hi[0], 20 * 0.5);
+  EXPECT_EQ(scene.output.regions[1].name, "box");
+  EXPECT_EQ(scene.output.regions[1].lo, scene.box.lo);
+  EXPECT_EQ(scene.output.regions[1].hi, scene.box.hi);
   EXPECT_NEAR(scene.model.wall_model.wall_density, 8.0, 0.08);  // the wall tiles' measured
   int mobile = -1;
   for (int t = 0; t < scene.model.ntypes(); ++t) {
@@ -376,7 +386,17 @@ TEST(PackingCli, RunPermeabilityLayoutWritesAPeriodicSampleForTheSweep) {
   const pipeline::Scene scene_y = pipeline::load_scene(tmp / "perm_y" / "scene.toml");
   EXPECT_DOUBLE_EQ(scene_y.box.hi[0], 20 * 0.5);
   EXPECT_DOUBLE_EQ(scene_y.box.hi[1], 16 * 0.5);
-  EXPECT_EQ(scene_y.model.types[0].body_force, (std::array<double, 3>{0, 0.02, 0}));
+  ASSERT_EQ(scene_y.output.regions.size(), 1u);  // not mirrored: the block is the box
+  EXPECT_EQ(scene_y.output.regions[0].name, "block");
+  // Without --body-force the scene's flow stage takes the top suggested sweep force (3 digits),
+  // so that `rockflow run` shows a flux above the noise whatever the resolution.
+  const auto run_y = nlohmann::json::parse(mesorock::test::read_file(tmp / "perm_y" / "run.json"));
+  const double median_y = run_y.at("pore_sizes").at("median_rc").get<double>();
+  const double g_y = run_y.at("parameters").at("body_force").get<double>();
+  EXPECT_EQ(run_y["parameters"]["body_force_from"], "median pore");
+  EXPECT_NEAR(g_y * median_y * median_y, pipeline::prep::kSweepForceTimesPore2,
+              0.006 * pipeline::prep::kSweepForceTimesPore2);
+  EXPECT_EQ(scene_y.model.types[0].body_force, (std::array<double, 3>{0, g_y, 0}));
   // Every pore kept: no fluid in solid, no wall in a pore.
   const Placement placed_y =
       placement(sim::read_particle_file(tmp / "perm_y" / "particles.h5"), 0, false);
