@@ -189,7 +189,7 @@ std::string permeability_scene_toml(const packing::PermeabilityLayout& L,
     << quoted(p.fluid_type) << "]\n\n";
   // Mirrored: also the whole box, whose flow rate is the flux rockflow sweep measures. At no
   // force the block and its mirror image carry slow opposite flows that the box's sum cancels
-  // (docs/permeability.md, "The block region at no force").
+  // (docs/permeability.md, "The scene's own flow").
   if (L.mirrored)
     s << "[[output.regions]]\nname = \"box\"\nlo = " << vec(L.box.lo) << "\nhi = " << vec(L.box.hi)
       << "\nevery = " << p.region_every << "\ntypes = [" << quoted(p.fluid_type) << "]\n\n";
