@@ -8,7 +8,10 @@ set -uo pipefail
 bins=${BINS:-$(cd $B && ls rockflow* | tr '\n' ' ')}
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,clocks.sm --format=csv,noheader
 cat .carry/gpu/COMMIT
-small() { $B/$1 bench --backend cuda --case bulk --particles 20000 --steps 5000 "${@:2}" 2>&1 | tail -1; }
+small() {  # the bench line, or with --profile the per-pass line
+  $B/$1 bench --backend cuda --case bulk --particles 20000 --steps 5000 "${@:2}" 2>&1 |
+    grep -E "^bench|per-step" | tail -1
+}
 for round in $(seq ${ROUNDS:-3}); do
   for bin in $bins; do echo "small $bin r$round: $(small $bin)"; done
 done
