@@ -126,19 +126,24 @@ struct RunArgs {
   // periodic box, one fluid type driven by a body force.
   std::string layout = "flooding";
   bool no_mirror = false;
-  // NaN (not given): the top of the forces suggested for rockflow sweep (g d^2 = 2.29 for the
-  // median pore); a fixed 0.02 barely showed a flow at 0.5 rc per voxel (docs/permeability.md).
-  double body_force = std::nan("");
+  // --body-force when given (body_force_option); otherwise the scene takes the top of the forces
+  // suggested for rockflow sweep (g d^2 = 2.29 for the median pore): a fixed 0.02 barely showed a
+  // flow at 0.5 rc per voxel (docs/permeability.md).
+  double body_force = 0;
   const CLI::Option* body_force_option = nullptr;
   std::uint64_t flow_steps = 2000;
   // Options of one layout only, when given: an error with the other layout.
   std::vector<const CLI::Option*> flooding_only, permeability_only;
 };
 
+// Whether `o` was given on the command line.
+bool given(const CLI::Option* o) {
+  return o && o->count() > 0;
+}
 // The first option of `options` given on the command line, or "".
 std::string first_given(const std::vector<const CLI::Option*>& options) {
   for (const CLI::Option* o : options)
-    if (o->count() > 0) return o->get_name();
+    if (given(o)) return o->get_name();
   return "";
 }
 
@@ -250,8 +255,7 @@ RunPlan plan_run(const RunArgs& a) {
   if (permeability) {
     const std::string o = first_given(a.flooding_only);
     if (!o.empty()) throw ConfigError("run: " + o + " belongs to --layout flooding");
-    if (a.body_force_option && a.body_force_option->count() > 0 &&
-        !(std::isfinite(a.body_force) && a.body_force > 0))
+    if (given(a.body_force_option) && !(std::isfinite(a.body_force) && a.body_force > 0))
       throw ConfigError("run: --body-force must be a positive number");
   } else {
     const std::string o = first_given(a.permeability_only);
@@ -690,7 +694,7 @@ std::string suggested_forces(const RunContext& c) {
 }
 // The scene's body force: --body-force, else the top suggested force as printed (3 digits).
 double scene_body_force(const RunContext& c) {
-  if (!std::isnan(c.args.body_force)) return c.args.body_force;
+  if (given(c.args.body_force_option)) return c.args.body_force;
   return std::stod(fmt(suggested_force_list(c).back(), 3));
 }
 
@@ -786,7 +790,7 @@ void record_parameters(const RunContext& c, const BlockScale& b,
   if (c.plan.permeability) {
     parameters["mirror"] = !a.no_mirror;
     parameters["body_force"] = sp.body_force;
-    parameters["body_force_from"] = std::isnan(a.body_force) ? "median pore" : "--body-force";
+    parameters["body_force_from"] = given(a.body_force_option) ? "--body-force" : "median pore";
     parameters["stages"] = {{"relax", a.relax_steps}, {"flow", a.flow_steps}};
   } else {
     parameters["inlet_rc"] = a.inlet_rc;

@@ -478,7 +478,7 @@ TEST(PackingCli, RunRefusesBadInputWithoutOutput) {
        "--no-mirror belongs to --layout permeability"},
       {"run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --body-force 0 --out o",
        "--body-force"},
-      // NaN stands for "not given" inside; given, it is refused like any non-positive force.
+      // A force that is not a number is refused like a non-positive one.
       {"run syn/truth.mhd --rc-per-voxel 0.5 --layout permeability --body-force nan --out o",
        "--body-force"},
       {"run closed.raw --shape 8,8,8 --dtype uint8 --labels 1=pore,3=inorganic --rc-per-voxel "
