@@ -22,15 +22,14 @@ prep() {  # prep OUT CROP CACHE [rockprep options]: one timed rockprep run
   shift 3
   t=$(date +%s.%N)
   berea_prep $crop $out --seed 7 --tile-cache $cache "$@"
-  cp $out.log $W/prep.log
-  echo "$(seconds_since $t) s: $(grep summary $W/prep.log | tail -1)"
+  echo "$(seconds_since $t) s: $(grep summary $out.log | tail -1)"
 }
 # 1. rockprep: empty cache, warm cache, for the issue's scene and rockprep's own resolution.
 for v in 0.5 auto; do
   opt=(); [ $v = auto ] || opt=(--rc-per-voxel $v)
   rm -rf $W/cache$v
   echo "rockprep 100^3 at $v, empty cache: $(prep $W/S$v 0:100,0:100,0:100 $W/cache$v "${opt[@]}")"
-  grep -iE "tiles|rc per voxel" $W/prep.log | head -4
+  grep -iE "tiles|rc per voxel" $W/S$v.log | head -4
   for i in 1 2; do
     echo "rockprep 100^3 at $v, warm cache $i: $(prep $W/warm 0:100,0:100,0:100 $W/cache$v "${opt[@]}")"
   done
