@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include "mesorock/errors.h"
+#include "mesorock/number_text.h"
+#include "pipeline/flow/darcy_fit.h"
 #include "pipeline/flow/leak_invariant.h"
 #include "pipeline/flow/observable_outputs.h"
 #include "pipeline/flow/statistics.h"
@@ -418,7 +420,14 @@ struct RegionRun {
   int saturation_type = -1;  // index into types, or -1
   sim::BinGrid grid;
   nlohmann::json last = nlohmann::json::object();  // the last sample, for summary.json
+  // The averaged stages' flow rates: flow[type index][axis], a value per sample.
+  std::vector<std::array<std::vector<double>, 3>> flow;
 };
+
+// The steady test of a region's flow rate (rockflow sweep's rule, steady_halves): halves of 5
+// blocks each, agreeing within 5% or their noise.
+constexpr size_t kSteadyWindowBlocks = 5;
+constexpr double kSteadyTolerance = 0.05;
 
 // [[output.regions]]: regions.csv, and saturation.csv and region_pressure.csv when a region asks.
 class RegionsOutput final : public RunOutput {
@@ -437,19 +446,32 @@ class RegionsOutput final : public RunOutput {
     nlohmann::json last = nlohmann::json::array();
     for (const auto& r : regions_) last.push_back(r.last);
     record.texts["regions.last"] = last.dump();
+    for (size_t i = 0; i < regions_.size(); ++i)
+      for (size_t k = 0; k < regions_[i].flow.size(); ++k)
+        for (size_t a = 0; a < 3; ++a) record.numbers[flow_key(i, k, a)] = regions_[i].flow[k][a];
   }
   void finish(const RunPoint&) override {
     for (CsvSeries* f : {&rows_, &saturation_, &pressure_}) f->close();
   }
   void summarize(nlohmann::json& summary) override {
-    nlohmann::json rj = nlohmann::json::object();
-    for (const auto& r : regions_) rj[r.spec->name] = r.last;
+    nlohmann::json rj = nlohmann::json::object(), averages = nlohmann::json::object();
+    for (const auto& r : regions_) {
+      rj[r.spec->name] = r.last;
+      if (!r.flow.empty() && !r.flow[0][0].empty()) averages[r.spec->name] = flow_averages(r);
+    }
     summary["regions"] = {{"file", "regions.csv"}, {"last_sample", rj}};
+    if (!averages.empty()) summary["regions"]["averages"] = averages;
     if (any_saturation_) summary["regions"]["saturation_file"] = "saturation.csv";
     if (any_pressure_) summary["regions"]["pressure_file"] = "region_pressure.csv";
   }
+  std::vector<std::string> report() const override;
 
  private:
+  static std::string flow_key(size_t region, size_t type, size_t axis) {
+    return "regions." + std::to_string(region) + "." + std::to_string(type) + ".flow_rate_" +
+           "xyz"[axis];
+  }
+  nlohmann::json flow_averages(const RegionRun& r) const;
   void sample_region(RegionRun& r, const RunPoint& at);
   RunContext& run_;
   std::vector<RegionRun> regions_;
@@ -470,6 +492,7 @@ RegionsOutput::RegionsOutput(RunContext& run) : run_(run) {
     r.grid.hi = spec.hi;
     any_saturation_ = any_saturation_ || r.saturation_type >= 0;
     any_pressure_ = any_pressure_ || spec.pressure;
+    r.flow.resize(r.types.size());
     regions_.push_back(std::move(r));
   }
   rows_.open_in(run,
@@ -495,6 +518,12 @@ RegionsOutput::RegionsOutput(RunContext& run) : run_(run) {
   if (run.resumed) {
     const nlohmann::json last = nlohmann::json::parse(run.resumed->text("regions.last"));
     for (size_t k = 0; k < regions_.size() && k < last.size(); ++k) regions_[k].last = last[k];
+    // A checkpoint of an earlier version holds no flow series: the averages start afresh.
+    for (size_t i = 0; i < regions_.size(); ++i)
+      for (size_t k = 0; k < regions_[i].flow.size(); ++k)
+        for (size_t a = 0; a < 3; ++a)
+          if (run.resumed->numbers.count(flow_key(i, k, a)))
+            regions_[i].flow[k][a] = run.resumed->series(flow_key(i, k, a));
   }
 }
 
@@ -523,6 +552,8 @@ void RegionsOutput::sample_region(RegionRun& r, const RunPoint& at) {
           << name << "," << n << "," << n / volume << "," << q[0] << "," << q[1] << "," << q[2]
           << "\n";
     per_type[name] = {{"count", n}, {"flow_rate", {q[0], q[1], q[2]}}};
+    if (at.averaged)
+      for (size_t a = 0; a < 3; ++a) r.flow[k][a].push_back(q[a]);
     counted += n;
     if (static_cast<int>(k) == r.saturation_type) of_type = n;
   }
@@ -547,6 +578,119 @@ void RegionsOutput::sample_region(RegionRun& r, const RunPoint& at) {
     r.last["saturation"] = sat;
     r.last["recovery"] = 1.0 - sat;
   }
+}
+
+// The axes along which a region's counted types are driven (a body force on any of them).
+std::vector<size_t> driven_axes(const sim::Model& model, const std::vector<int>& types) {
+  std::vector<size_t> axes;
+  for (size_t a = 0; a < 3; ++a)
+    for (int t : types)
+      if (model.types[static_cast<size_t>(t)].body_force[a] != 0) {
+        axes.push_back(a);
+        break;
+      }
+  return axes;
+}
+
+// The counted types' flow rates summed, sample by sample.
+std::vector<double> total_flow(const RegionRun& r, size_t axis) {
+  std::vector<double> sum(r.flow[0][axis].size(), 0.0);
+  for (const auto& f : r.flow)
+    for (size_t j = 0; j < sum.size(); ++j) sum[j] += f[axis][j];
+  return sum;
+}
+
+// Was a flow rate's series steady? rockflow sweep's two tests on its 10 block means: the halves
+// agree (steady_halves) and the least-squares trend across the blocks is within Student's t_99
+// of its error. `change`: that trend over the series, relative to its mean.
+struct FlowVerdict {
+  SteadyHalves halves;
+  Trend trend;
+  double change = 0, change_error = 0;
+  bool steady = false;
+};
+
+FlowVerdict flow_verdict(const std::vector<double>& q) {
+  FlowVerdict v;
+  v.halves = steady_halves(q, kSteadyWindowBlocks, kSteadyTolerance);
+  if (!v.halves.judged) return v;
+  const std::vector<double>& b = v.halves.blocks;
+  v.trend = trend_of(b, 0, b.size());
+  const double mean = mean_of(b, 0, b.size()), span = static_cast<double>(b.size() - 1);
+  if (mean != 0) {
+    v.change = v.trend.slope * span / mean;
+    v.change_error = std::abs(v.trend.slope_error * span / mean);
+  }
+  v.steady = v.halves.steady && !v.trend.significant();
+  return v;
+}
+
+nlohmann::json RegionsOutput::flow_averages(const RegionRun& r) const {
+  const sim::Model& model = run_.scene.model;
+  nlohmann::json j = {{"samples", r.flow[0][0].size()}, {"every", r.spec->every}};
+  for (size_t k = 0; k < r.types.size(); ++k)
+    for (size_t a = 0; a < 3; ++a)
+      j["types"][model.types[static_cast<size_t>(r.types[k])].name]["flow_rate"][a] =
+          mean_json(block_average(r.flow[k][a]));
+  for (size_t a = 0; a < 3; ++a) j["flow_rate"][a] = mean_json(block_average(total_flow(r, a)));
+  nlohmann::json steady = nlohmann::json::object();
+  for (size_t a : driven_axes(model, r.types)) {
+    const FlowVerdict v = flow_verdict(total_flow(r, a));
+    nlohmann::json& s = steady[std::string(1, "xyz"[a])];
+    s = {{"judged", v.halves.judged}, {"steady", v.steady}};
+    if (!v.halves.judged) continue;
+    s["first_half_mean"] = v.halves.halves.first;
+    s["second_half_mean"] = v.halves.halves.second;
+    s["halves_noise"] = v.halves.halves.noise;
+    s["change"] = v.change;
+    s["change_error"] = v.change_error;
+    s["trend_significant"] = v.trend.significant();
+  }
+  if (!steady.empty()) {
+    j["steady"] = steady;
+    j["steady_rule"] =
+        "the counted types' flow rate along each driven axis, its samples in the averaged stages "
+        "cut into 10 blocks: steady when the means of the last 5 and the 5 before agree within "
+        "5% or two combined standard errors (halves_noise), and the least-squares trend across "
+        "the blocks is within Student's t_99 standard errors (rockflow sweep's tests); change: "
+        "that trend over the blocks relative to their mean";
+  }
+  return j;
+}
+
+// A line per region and driven axis: the averaged flow rate and whether it was steady.
+std::vector<std::string> RegionsOutput::report() const {
+  std::vector<std::string> lines;
+  for (const auto& r : regions_) {
+    if (r.flow.empty() || r.flow[0][0].empty()) continue;
+    for (size_t a : driven_axes(run_.scene.model, r.types)) {
+      const std::vector<double> q = total_flow(r, a);
+      const MeanWithError m = block_average(q);
+      const FlowVerdict v = flow_verdict(q);
+      std::string line = "region " + r.spec->name + ": flow rate along " + "xyz"[a] + " " +
+                         fmt(m.mean) + " +- " + fmt(m.error, 2) + " (" + std::to_string(q.size()) +
+                         " samples of the averaged stages); ";
+      if (!v.halves.judged) {
+        lines.push_back(line + "too few samples to judge whether it was steady (at least " +
+                        std::to_string(2 * kSteadyWindowBlocks) + ")");
+        continue;
+      }
+      const std::string change = "its trend over them " +
+                                 std::to_string(std::lround(100 * v.change)) + "% +- " +
+                                 std::to_string(std::lround(100 * v.change_error)) + "%";
+      if (v.steady)
+        line += (v.halves.within ? "steady: its two halves agree within 5%, "
+                                 : "no change beyond the noise (a longer stage tells closer): ") +
+                change;
+      else
+        line += "still changing: its halves " + fmt(v.halves.halves.first) + " and " +
+                fmt(v.halves.halves.second) + ", " + change +
+                "; a longer stage lets it settle (the scene's [[run]] steps, rockprep "
+                "--flow-steps), and rockflow sweep waits for steady flow itself";
+      lines.push_back(line);
+    }
+  }
+  return lines;
 }
 
 }  // namespace

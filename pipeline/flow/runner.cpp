@@ -322,10 +322,14 @@ void Runner::finish() {
               << " million mobile-particle-steps/s; stepping " << step_seconds_ << " s, outputs "
               << output_total << " s";
     if (checkpoint_seconds_ > 0) std::cerr << ", checkpoints " << checkpoint_seconds_ << " s";
-    std::cerr << "); outputs in " << options_.out_dir.string()
-              << " (summary.json, thermo.csv, final.xmf opens in ParaView)\n";
+    std::cerr << "); outputs in " << options_.out_dir.string() << " (summary.json"
+              << (scene_.output.thermo_every > 0 ? ", thermo.csv" : "")
+              << (scene_.output.final_snapshot ? ", final.xmf opens in ParaView" : "") << ")\n";
   }
   if (progress_ && !profile.empty()) std::cerr << "rockflow: " << profile << "\n";
+  if (progress_)
+    for (const auto& o : outputs_)
+      for (const std::string& line : o->report()) std::cerr << "rockflow: " << line << "\n";
 }
 
 }  // namespace mesorock::pipeline

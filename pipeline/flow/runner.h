@@ -93,6 +93,8 @@ class RunOutput {
   // The run is complete: close series, write end-of-run files (staged).
   virtual void finish(const RunPoint&) {}
   virtual void summarize(nlohmann::json&) {}
+  // Lines for the user at the end of the run (after summarize), e.g. whether a flow was steady.
+  virtual std::vector<std::string> report() const { return {}; }
 };
 
 // Runs a scene's stages with its outputs. Construct with a simulation made for the scene (fresh

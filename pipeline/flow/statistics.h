@@ -60,16 +60,60 @@ inline double standard_error_of(const std::vector<double>& v, size_t from, size_
   return n > 1 ? std::sqrt(ss / (n - 1) / n) : 0.0;
 }
 
+// The last two windows of w values of a series: their means and the noise of their difference
+// (two combined standard errors, the values taken as independent block means).
+struct WindowPair {
+  double first = 0, second = 0, noise = 0;
+  bool within(double tolerance) const {
+    return std::abs(second - first) <= tolerance * std::abs(second);
+  }
+  bool agree(double tolerance) const {
+    return within(tolerance) || std::abs(second - first) <= noise;
+  }
+};
+
+inline WindowPair last_two_windows(const std::vector<double>& J, size_t w) {
+  const size_t n = J.size();
+  WindowPair p;
+  p.first = mean_of(J, n - 2 * w, n - w);
+  p.second = mean_of(J, n - w, n);
+  p.noise = 2 * std::hypot(standard_error_of(J, n - 2 * w, n - w), standard_error_of(J, n - w, n));
+  return p;
+}
+
 // The steady test of block series (rockflow sweep, relperm, pc): the means of the last two windows
 // of w blocks agree within `tolerance` (relative to the last) or within two combined standard
 // errors (noise-dominated series).
 inline bool halves_agree(const std::vector<double>& J, size_t w, double tolerance) {
-  const size_t n = J.size();
-  if (w == 0 || n < 2 * w) return false;
-  const double m1 = mean_of(J, n - 2 * w, n - w), m2 = mean_of(J, n - w, n);
-  const double noise =
-      2 * std::hypot(standard_error_of(J, n - 2 * w, n - w), standard_error_of(J, n - w, n));
-  return std::abs(m2 - m1) <= std::max(tolerance * std::abs(m2), noise);
+  if (w == 0 || J.size() < 2 * w) return false;
+  return last_two_windows(J, w).agree(tolerance);
+}
+
+// The same test on a run's sampled series (rockflow run's region flow rates): the series is cut
+// into 2 w blocks of equal length (the earliest samples that do not fill a block are left out) and
+// the halves of the block means compared. Fewer than 2 w samples are not judged.
+struct SteadyHalves {
+  bool judged = false;
+  bool steady = false;         // halves_agree
+  bool within = false;         // agree within the tolerance (not only within the noise)
+  WindowPair halves;           // the means of the two halves and their noise
+  std::vector<double> blocks;  // the block means
+};
+
+inline SteadyHalves steady_halves(const std::vector<double>& series, size_t w, double tolerance) {
+  SteadyHalves h;
+  const size_t blocks = 2 * w;
+  if (w == 0 || series.size() < blocks) return h;
+  const size_t len = series.size() / blocks, from = series.size() - len * blocks;
+  std::vector<double>& means = h.blocks;
+  means.resize(blocks);
+  for (size_t b = 0; b < blocks; ++b)
+    means[b] = mean_of(series, from + b * len, from + (b + 1) * len);
+  h.judged = true;
+  h.halves = last_two_windows(means, w);
+  h.steady = h.halves.agree(tolerance);
+  h.within = h.halves.within(tolerance);
+  return h;
 }
 
 // a / b and its error, a and b independent.

@@ -438,3 +438,123 @@ thermo_every = 10
   EXPECT_LE(stepping + outputs, summary.at("run_seconds").get<double>() * (1 + 1e-9));
   EXPECT_NE(r.err.find("stepping"), std::string::npos) << r.err;
 }
+
+// A region's flow rate over the averaged stages, and whether it was steady (the sweep's halves
+// test on its samples): a liquid that a uniform force accelerates in a periodic box (its momentum
+// grows as N g t, so the flow rate triples from the first half to the second) is still changing;
+// reverse Poiseuille flow after 15 relaxation times of the half-box (d^2 / (pi^2 nu), about 1)
+// is steady. A region with no driven type gets averages but no verdict.
+TEST(RunOutputs, RegionsSayWhetherTheirFlowWasSteady) {
+  struct Case {
+    const char* name;
+    const char* model;  // the [model] lines past conservative
+    int spin_up, flow;
+    bool steady;
+  };
+  for (const Case& c :
+       {Case{"accelerating", "", 1, 300, false},
+        Case{"reverse_poiseuille", "body_force_profile = \"reversed\"\nbody_force_axis = \"z\"\n",
+             1500, 1000, true}}) {
+    SCOPED_TRACE(c.name);
+    TempDir dir;
+    const fs::path scene = dir / "scene.toml";
+    {
+      std::ofstream f(scene);
+      f << "name = \"" << c.name << "\"\nseed = 9\n"
+        << R"([box]
+lo = [0.0, 0.0, 0.0]
+hi = [4.0, 4.0, 6.0]
+[model]
+conservative = "mdpd"
+)" << c.model
+        << R"([[types]]
+name = "water"
+body_force = [0.2, 0.0, 0.0]
+[[types]]
+name = "tracer"
+[[pairs]]
+types = ["water", "water"]
+A = -40.0
+B = 25.0
+gamma = 4.5
+[[pairs]]
+types = ["water", "tracer"]
+A = -40.0
+B = 25.0
+gamma = 4.5
+[[pairs]]
+types = ["tracer", "tracer"]
+A = -40.0
+B = 25.0
+gamma = 4.5
+[[init]]
+kind = "random"
+type = "water"
+density = 7.0
+[[init]]
+kind = "random"
+type = "tracer"
+count = 5
+[[run]]
+name = "spin_up"
+)"
+        << "steps = " << c.spin_up << "\ndt = 0.01\n[[run]]\nname = \"flow\"\nsteps = " << c.flow
+        << R"(
+dt = 0.01
+[output]
+thermo_every = 0
+final_snapshot = false
+average_stages = ["flow"]
+[[output.regions]]
+name = "lower"
+lo = [0.0, 0.0, 0.0]
+hi = [4.0, 4.0, 3.0]
+every = 10
+types = ["water"]
+[[output.regions]]
+name = "tracers"
+lo = [0.0, 0.0, 0.0]
+hi = [4.0, 4.0, 6.0]
+every = 10
+types = ["tracer"]
+)";
+    }
+    const CommandResult r = mesorock::test::run_command(
+        mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
+            mesorock::test::shell_quote(scene.string()) + " --out " +
+            mesorock::test::shell_quote((dir / "out").string()) + " --threads 2",
+        dir.path());
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto summary =
+        nlohmann::json::parse(mesorock::test::read_file(dir / "out" / "summary.json"));
+    const auto& lower = summary.at("regions").at("averages").at("lower");
+    EXPECT_EQ(lower.at("samples").get<int>(), c.flow / 10);  // the flow stage's samples only
+    const auto& verdict = lower.at("steady").at("x");
+    EXPECT_TRUE(verdict.at("judged").get<bool>());
+    EXPECT_EQ(verdict.at("steady").get<bool>(), c.steady) << verdict.dump();
+    EXPECT_FALSE(lower.at("steady").contains("y"));  // no force along y
+    const double first = verdict.at("first_half_mean").get<double>();
+    const double second = verdict.at("second_half_mean").get<double>();
+    const double mean = lower.at("flow_rate").at(0).at("mean").get<double>();
+    EXPECT_NEAR(mean, 0.5 * (first + second), 1e-9 * std::abs(mean));
+    const double change = verdict.at("change").get<double>();
+    const double change_error = verdict.at("change_error").get<double>();
+    if (!c.steady) {
+      EXPECT_GT(second, 2 * first);
+      // A ramp from rest: the block means go as 0.5, 1.5, ..., 9.5, so the trend across them is
+      // 9 / 5 = 1.8 times their mean.
+      EXPECT_TRUE(verdict.at("trend_significant").get<bool>());
+      EXPECT_GT(change, 1.0);
+    } else {
+      EXPECT_FALSE(verdict.at("trend_significant").get<bool>());
+      EXPECT_LT(std::abs(change), 3 * change_error + 0.05);
+    }
+    EXPECT_NE(r.err.find(c.steady ? "region lower: flow rate along x" : "still changing"),
+              std::string::npos)
+        << r.err;
+    // The tracers feel no force: averaged, not judged.
+    const auto& tracers = summary.at("regions").at("averages").at("tracers");
+    EXPECT_FALSE(tracers.contains("steady"));
+    EXPECT_EQ(r.err.find("region tracers"), std::string::npos) << r.err;
+  }
+}
