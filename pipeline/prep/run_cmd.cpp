@@ -707,8 +707,9 @@ std::string scene_comment(const RunContext& rc, bool permeability) {
       << "): the block" << (a.no_mirror ? "" : " and its mirror image along " + a.flow_axis)
       << " in a periodic box, the fluid driven by a body force along " << a.flow_axis
       << ".\nSweep it: rockflow sweep scene.toml --out OUT --forces " << suggested_forces(rc)
-      << " (docs/permeability.md); or rockflow run scene.toml --out OUT.\nSeed " << a.seed
-      << "; provenance in run.json.";
+      << " (docs/permeability.md); or watch it flow: rockflow run scene.toml --out OUT (its flow "
+         "rate settles only after thousands of steps).\nSeed "
+      << a.seed << "; provenance in run.json.";
   } else {
     c << "Flooding set-up written by rockprep run (mesorock " << kVersion << ", " << kGitCommit
       << ").\nRun it: rockflow run scene.toml --out OUT (regions.csv, saturation.csv: the "
@@ -956,7 +957,9 @@ void print_summary(const RunContext& c, const RunLayout& l, const ParticleRoles&
               << " --out OUT --forces " << suggested_forces(c) << "\n"
               << "rockprep: or watch it flow: rockflow run " << (out / "scene.toml").string()
               << " --out OUT (body force " << scene_body_force(c) << " along " << a.flow_axis
-              << ", " << a.flow_steps << " steps)\n";
+              << ", " << a.flow_steps
+              << " steps; the flow rate takes thousands of steps to settle, docs/permeability.md: "
+                 "measure k with the sweep)\n";
   else
     std::cout << "rockprep: next: rockflow run " << (out / "scene.toml").string() << " --out OUT\n";
 }
