@@ -97,6 +97,15 @@ CsvTable read_csv(const fs::path& p) {
   return t;
 }
 
+// `rockflow run SCENE --out DIR/out --threads N` in DIR.
+CommandResult run_scene(const TempDir& dir, const fs::path& scene, int threads) {
+  return mesorock::test::run_command(mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
+                                         mesorock::test::shell_quote(scene.string()) + " --out " +
+                                         mesorock::test::shell_quote((dir / "out").string()) +
+                                         " --threads " + std::to_string(threads),
+                                     dir.path());
+}
+
 }  // namespace
 
 TEST(RunOutputs, EveryFileOpensAndHoldsTheAveragedObservables) {
@@ -106,11 +115,7 @@ TEST(RunOutputs, EveryFileOpensAndHoldsTheAveragedObservables) {
     std::ofstream f(scene);
     f << kScene;
   }
-  const CommandResult r = mesorock::test::run_command(
-      mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
-          mesorock::test::shell_quote(scene.string()) + " --out " +
-          mesorock::test::shell_quote((dir / "out").string()) + " --threads 2",
-      dir.path());
+  const CommandResult r = run_scene(dir, scene, 2);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const fs::path out = dir / "out";
   for (const char* f :
@@ -232,11 +237,7 @@ every = 50
 types = ["working"]
 )";
   }
-  const CommandResult r = mesorock::test::run_command(
-      mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
-          mesorock::test::shell_quote(scene.string()) + " --out " +
-          mesorock::test::shell_quote((dir / "out").string()) + " --threads 2",
-      dir.path());
+  const CommandResult r = run_scene(dir, scene, 2);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const fs::path out = dir / "out";
   std::stringstream rows(mesorock::test::read_file(out / "regions.csv"));
@@ -330,11 +331,7 @@ every = 50
 pressure = true
 )";
   }
-  const CommandResult r = mesorock::test::run_command(
-      mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
-          mesorock::test::shell_quote(scene.string()) + " --out " +
-          mesorock::test::shell_quote((dir / "out").string()) + " --threads 2",
-      dir.path());
+  const CommandResult r = run_scene(dir, scene, 2);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const fs::path out = dir / "out";
   const CsvTable inj = read_csv(out / "injection.csv");
@@ -410,11 +407,7 @@ dt = 0.005
 thermo_every = 10
 )";
   }
-  const CommandResult r = mesorock::test::run_command(
-      mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
-          mesorock::test::shell_quote(scene.string()) + " --out " +
-          mesorock::test::shell_quote((dir / "out").string()) + " --threads 1",
-      dir.path());
+  const CommandResult r = run_scene(dir, scene, 1);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto summary =
       nlohmann::json::parse(mesorock::test::read_file(dir / "out" / "summary.json"));
@@ -519,11 +512,7 @@ every = 10
 types = ["tracer"]
 )";
     }
-    const CommandResult r = mesorock::test::run_command(
-        mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
-            mesorock::test::shell_quote(scene.string()) + " --out " +
-            mesorock::test::shell_quote((dir / "out").string()) + " --threads 2",
-        dir.path());
+    const CommandResult r = run_scene(dir, scene, 2);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto summary =
         nlohmann::json::parse(mesorock::test::read_file(dir / "out" / "summary.json"));
