@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Where users run (docs/benchmarks.md, "The issue's Berea crop where users run"): the GPU tests,
 # then the issue's Berea scenes (100^3 crop at 0.5 and at rockprep's own 0.85 rc per voxel) run
-# by `rockflow run` and by a short `rockflow sweep`, with a reference binary (rockflow-old) and
+# by `rockflow run` and by a short `rockflow sweep` (a check that two builds compute the same
+# thing: too short for the flow to settle, so its k reads high; docs/permeability.md, "The flow
+# rate's slow fall"), with a reference binary (rockflow-old) and
 # the new one alternating; the new summaries' time split (stepping against each output); the
 # GPU's buried part on and off in the bench's rock case; and the scenes in single precision (their
 # default is double) beside the bench's rock and bulk cases in both precisions.
