@@ -685,8 +685,7 @@ std::vector<std::string> RegionsOutput::report() const {
       else
         line += "still changing: its halves " + fmt(v.halves.halves.first) + " and " +
                 fmt(v.halves.halves.second) + ", " + change +
-                "; a longer stage lets it settle (the scene's [[run]] steps, rockprep "
-                "--flow-steps), and rockflow sweep waits for steady flow itself";
+                "; a longer stage shows whether it settles (its [[run]] steps)";
       lines.push_back(line);
     }
   }
