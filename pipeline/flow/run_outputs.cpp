@@ -424,8 +424,8 @@ struct RegionRun {
   std::vector<std::array<std::vector<double>, 3>> flow;
 };
 
-// The steady test of a region's flow rate (rockflow sweep's rule, steady_halves): halves of 5
-// blocks each, agreeing within 5% or their noise.
+// The steady test of a region's flow rate (rockflow sweep's rule, halves_agree): 10 blocks, the
+// last 5 and the 5 before agreeing within 5% or their noise.
 constexpr size_t kSteadyWindowBlocks = 5;
 constexpr double kSteadyTolerance = 0.05;
 
@@ -600,29 +600,49 @@ std::vector<double> total_flow(const RegionRun& r, size_t axis) {
   return sum;
 }
 
-// Was a flow rate's series steady? rockflow sweep's two tests on its 10 block means: the halves
-// agree (steady_halves) and the least-squares trend across the blocks is within Student's t_99
-// of its error. `change`: that trend over the series, relative to its mean.
+// Was a flow rate's series steady? rockflow sweep's two tests on its 10 block means (the latest
+// samples that fill them): the halves agree (WindowPair::agree) and the least-squares trend across
+// the blocks is within Student's t_99 of its error. `change`: that trend over the blocks, relative
+// to their mean. Fewer than 10 samples are not judged.
 struct FlowVerdict {
-  SteadyHalves halves;
+  bool judged = false, steady = false;
+  WindowPair halves;
   Trend trend;
   double change = 0, change_error = 0;
-  bool steady = false;
 };
 
 FlowVerdict flow_verdict(const std::vector<double>& q) {
   FlowVerdict v;
-  v.halves = steady_halves(q, kSteadyWindowBlocks, kSteadyTolerance);
-  if (!v.halves.judged) return v;
-  const std::vector<double>& b = v.halves.blocks;
+  const std::vector<double> b = block_means(q, 2 * kSteadyWindowBlocks, true);
+  if (b.empty()) return v;
+  v.judged = true;
+  v.halves = last_two_windows(b, kSteadyWindowBlocks);
   v.trend = trend_of(b, 0, b.size());
   const double mean = mean_of(b, 0, b.size()), span = static_cast<double>(b.size() - 1);
   if (mean != 0) {
     v.change = v.trend.slope * span / mean;
     v.change_error = std::abs(v.trend.slope_error * span / mean);
   }
-  v.steady = v.halves.steady && !v.trend.significant();
+  v.steady = v.halves.agree(kSteadyTolerance) && !v.trend.significant();
   return v;
+}
+
+// A region's summed flow rate along one of its driven axes, averaged and judged.
+struct DrivenFlow {
+  size_t axis = 0;
+  size_t samples = 0;
+  MeanWithError mean;
+  FlowVerdict verdict;
+};
+
+std::vector<DrivenFlow> driven_flows(const sim::Model& model, const RegionRun& r) {
+  std::vector<DrivenFlow> out;
+  if (r.flow.empty() || r.flow[0][0].empty()) return out;
+  for (size_t a : driven_axes(model, r.types)) {
+    const std::vector<double> q = total_flow(r, a);
+    out.push_back({a, q.size(), block_average(q), flow_verdict(q)});
+  }
+  return out;
 }
 
 nlohmann::json RegionsOutput::flow_averages(const RegionRun& r) const {
@@ -634,14 +654,14 @@ nlohmann::json RegionsOutput::flow_averages(const RegionRun& r) const {
           mean_json(block_average(r.flow[k][a]));
   for (size_t a = 0; a < 3; ++a) j["flow_rate"][a] = mean_json(block_average(total_flow(r, a)));
   nlohmann::json steady = nlohmann::json::object();
-  for (size_t a : driven_axes(model, r.types)) {
-    const FlowVerdict v = flow_verdict(total_flow(r, a));
-    nlohmann::json& s = steady[std::string(1, "xyz"[a])];
-    s = {{"judged", v.halves.judged}, {"steady", v.steady}};
-    if (!v.halves.judged) continue;
-    s["first_half_mean"] = v.halves.halves.first;
-    s["second_half_mean"] = v.halves.halves.second;
-    s["halves_noise"] = v.halves.halves.noise;
+  for (const DrivenFlow& f : driven_flows(model, r)) {
+    const FlowVerdict& v = f.verdict;
+    nlohmann::json& s = steady[std::string(1, "xyz"[f.axis])];
+    s = {{"judged", v.judged}, {"steady", v.steady}};
+    if (!v.judged) continue;
+    s["first_half_mean"] = v.halves.first;
+    s["second_half_mean"] = v.halves.second;
+    s["halves_noise"] = v.halves.noise;
     s["change"] = v.change;
     s["change_error"] = v.change_error;
     s["trend_significant"] = v.trend.significant();
@@ -661,16 +681,13 @@ nlohmann::json RegionsOutput::flow_averages(const RegionRun& r) const {
 // A line per region and driven axis: the averaged flow rate and whether it was steady.
 std::vector<std::string> RegionsOutput::report() const {
   std::vector<std::string> lines;
-  for (const auto& r : regions_) {
-    if (r.flow.empty() || r.flow[0][0].empty()) continue;
-    for (size_t a : driven_axes(run_.scene.model, r.types)) {
-      const std::vector<double> q = total_flow(r, a);
-      const MeanWithError m = block_average(q);
-      const FlowVerdict v = flow_verdict(q);
-      std::string line = "region " + r.spec->name + ": flow rate along " + "xyz"[a] + " " +
-                         fmt(m.mean) + " +- " + fmt(m.error, 2) + " (" + std::to_string(q.size()) +
-                         " samples of the averaged stages); ";
-      if (!v.halves.judged) {
+  for (const auto& r : regions_)
+    for (const DrivenFlow& f : driven_flows(run_.scene.model, r)) {
+      const FlowVerdict& v = f.verdict;
+      std::string line = "region " + r.spec->name + ": flow rate along " + "xyz"[f.axis] + " " +
+                         fmt(f.mean.mean) + " +- " + fmt(f.mean.error, 2) + " (" +
+                         std::to_string(f.samples) + " samples of the averaged stages); ";
+      if (!v.judged) {
         lines.push_back(line + "too few samples to judge whether it was steady (at least " +
                         std::to_string(2 * kSteadyWindowBlocks) + ")");
         continue;
@@ -679,16 +696,16 @@ std::vector<std::string> RegionsOutput::report() const {
                                  std::to_string(std::lround(100 * v.change)) + "% +- " +
                                  std::to_string(std::lround(100 * v.change_error)) + "%";
       if (v.steady)
-        line += (v.halves.within ? "steady: its two halves agree within 5%, "
-                                 : "no change beyond the noise (a longer stage tells closer): ") +
+        line += (v.halves.within(kSteadyTolerance)
+                     ? "steady: its two halves agree within 5%, "
+                     : "no change beyond the noise (a longer stage tells closer): ") +
                 change;
       else
-        line += "still changing: its halves " + fmt(v.halves.halves.first) + " and " +
-                fmt(v.halves.halves.second) + ", " + change +
+        line += "still changing: its halves " + fmt(v.halves.first) + " and " +
+                fmt(v.halves.second) + ", " + change +
                 "; a longer stage shows whether it settles (its [[run]] steps)";
       lines.push_back(line);
     }
-  }
   return lines;
 }
 

@@ -15,6 +15,34 @@ struct MeanWithError {
   size_t samples = 0;
 };
 
+// The mean of v[from, to) and its plain standard error (the series' values taken as independent:
+// block means longer than the correlation time).
+inline double mean_of(const std::vector<double>& v, size_t from, size_t to) {
+  double s = 0;
+  for (size_t k = from; k < to; ++k) s += v[k];
+  return s / static_cast<double>(to - from);
+}
+inline double standard_error_of(const std::vector<double>& v, size_t from, size_t to) {
+  const double m = mean_of(v, from, to);
+  const double n = static_cast<double>(to - from);
+  double ss = 0;
+  for (size_t k = from; k < to; ++k) ss += (v[k] - m) * (v[k] - m);
+  return n > 1 ? std::sqrt(ss / (n - 1) / n) : 0.0;
+}
+
+// The means of `blocks` equal blocks of a series: from its first sample on (the last samples that
+// fill no block left out), or with `latest` up to its last (the earliest left out). Empty when the
+// series has fewer samples than blocks.
+inline std::vector<double> block_means(const std::vector<double>& series, size_t blocks,
+                                       bool latest = false) {
+  if (blocks == 0 || series.size() < blocks) return {};
+  const size_t len = series.size() / blocks, from = latest ? series.size() - len * blocks : 0;
+  std::vector<double> means(blocks);
+  for (size_t b = 0; b < blocks; ++b)
+    means[b] = mean_of(series, from + b * len, from + (b + 1) * len);
+  return means;
+}
+
 inline MeanWithError block_average(const std::vector<double>& series, size_t blocks = 10) {
   MeanWithError r;
   r.samples = series.size();
@@ -30,12 +58,7 @@ inline MeanWithError block_average(const std::vector<double>& series, size_t blo
     r.error = n > 1 ? std::sqrt(ss / (n - 1) / n) : 0.0;
     return r;
   }
-  const size_t len = series.size() / blocks;
-  std::vector<double> means(blocks, 0.0);
-  for (size_t b = 0; b < blocks; ++b) {
-    for (size_t k = 0; k < len; ++k) means[b] += series[b * len + k];
-    means[b] /= static_cast<double>(len);
-  }
+  const std::vector<double> means = block_means(series, blocks);
   double m = 0;
   for (double v : means) m += v;
   m /= static_cast<double>(blocks);
@@ -43,21 +66,6 @@ inline MeanWithError block_average(const std::vector<double>& series, size_t blo
   for (double v : means) ss += (v - m) * (v - m);
   r.error = std::sqrt(ss / static_cast<double>(blocks - 1) / static_cast<double>(blocks));
   return r;
-}
-
-// The mean of v[from, to) and its plain standard error (the series' values taken as independent:
-// block means longer than the correlation time).
-inline double mean_of(const std::vector<double>& v, size_t from, size_t to) {
-  double s = 0;
-  for (size_t k = from; k < to; ++k) s += v[k];
-  return s / static_cast<double>(to - from);
-}
-inline double standard_error_of(const std::vector<double>& v, size_t from, size_t to) {
-  const double m = mean_of(v, from, to);
-  const double n = static_cast<double>(to - from);
-  double ss = 0;
-  for (size_t k = from; k < to; ++k) ss += (v[k] - m) * (v[k] - m);
-  return n > 1 ? std::sqrt(ss / (n - 1) / n) : 0.0;
 }
 
 // The last two windows of w values of a series: their means and the noise of their difference
@@ -87,33 +95,6 @@ inline WindowPair last_two_windows(const std::vector<double>& J, size_t w) {
 inline bool halves_agree(const std::vector<double>& J, size_t w, double tolerance) {
   if (w == 0 || J.size() < 2 * w) return false;
   return last_two_windows(J, w).agree(tolerance);
-}
-
-// The same test on a run's sampled series (rockflow run's region flow rates): the series is cut
-// into 2 w blocks of equal length (the earliest samples that do not fill a block are left out) and
-// the halves of the block means compared. Fewer than 2 w samples are not judged.
-struct SteadyHalves {
-  bool judged = false;
-  bool steady = false;         // halves_agree
-  bool within = false;         // agree within the tolerance (not only within the noise)
-  WindowPair halves;           // the means of the two halves and their noise
-  std::vector<double> blocks;  // the block means
-};
-
-inline SteadyHalves steady_halves(const std::vector<double>& series, size_t w, double tolerance) {
-  SteadyHalves h;
-  const size_t blocks = 2 * w;
-  if (w == 0 || series.size() < blocks) return h;
-  const size_t len = series.size() / blocks, from = series.size() - len * blocks;
-  std::vector<double>& means = h.blocks;
-  means.resize(blocks);
-  for (size_t b = 0; b < blocks; ++b)
-    means[b] = mean_of(series, from + b * len, from + (b + 1) * len);
-  h.judged = true;
-  h.halves = last_two_windows(means, w);
-  h.steady = h.halves.agree(tolerance);
-  h.within = h.halves.within(tolerance);
-  return h;
 }
 
 // a / b and its error, a and b independent.

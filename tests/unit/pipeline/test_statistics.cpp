@@ -1,6 +1,6 @@
 // The steady tests of pipeline/flow/statistics.h: the sweep's halves_agree on block series, and
-// steady_halves, which cuts a run's sampled series (rockflow run's region flow rates) into blocks
-// first.
+// the same halves (last_two_windows) of the block means that block_means cuts from a run's sampled
+// series (rockflow run's region flow rates).
 #include <gtest/gtest.h>
 
 #include <random>
@@ -8,9 +8,10 @@
 
 #include "pipeline/flow/statistics.h"
 
+using mesorock::pipeline::block_means;
 using mesorock::pipeline::halves_agree;
-using mesorock::pipeline::steady_halves;
-using mesorock::pipeline::SteadyHalves;
+using mesorock::pipeline::last_two_windows;
+using mesorock::pipeline::WindowPair;
 
 namespace {
 
@@ -33,34 +34,39 @@ TEST(Statistics, HalvesAgreeWithinTheToleranceOrTheNoise) {
   EXPECT_FALSE(halves_agree({10, 10, 10, 10}, 3, 0.05));                // too short to tell
 }
 
-TEST(Statistics, SteadyHalvesFindsARampAndPassesAPlateau) {
+TEST(Statistics, BlockHalvesFindARampAndPassAPlateau) {
   // A flow spinning up: the mean grows by half over the series, the noise 2% of it.
   const auto ramp = noisy(
       200, [](size_t k) { return 100.0 + 0.25 * static_cast<double>(k); }, 2.0, 1);
-  const SteadyHalves r = steady_halves(ramp, 5, 0.05);
-  ASSERT_TRUE(r.judged);
-  EXPECT_FALSE(r.steady);
-  EXPECT_NEAR(r.halves.first, 100.0 + 0.25 * 49.5, 1.0);
-  EXPECT_NEAR(r.halves.second, 100.0 + 0.25 * 149.5, 1.0);
+  const std::vector<double> rb = block_means(ramp, 10, true);
+  ASSERT_EQ(rb.size(), 10u);
+  const WindowPair r = last_two_windows(rb, 5);
+  EXPECT_FALSE(r.agree(0.05));
+  EXPECT_NEAR(r.first, 100.0 + 0.25 * 49.5, 1.0);
+  EXPECT_NEAR(r.second, 100.0 + 0.25 * 149.5, 1.0);
   // The same noise about a plateau: steady, and within 5%.
   const auto plateau = noisy(
       200, [](size_t) { return 150.0; }, 2.0, 2);
-  const SteadyHalves p = steady_halves(plateau, 5, 0.05);
-  EXPECT_TRUE(p.judged && p.steady && p.within);
+  const WindowPair p = last_two_windows(block_means(plateau, 10, true), 5);
+  EXPECT_TRUE(p.agree(0.05) && p.within(0.05));
   // A plateau in noise 50 times larger: the halves differ by more than 5%, but not beyond noise.
   const auto loud = noisy(
       200, [](size_t) { return 150.0; }, 100.0, 3);
-  const SteadyHalves l = steady_halves(loud, 5, 0.05);
-  EXPECT_TRUE(l.steady);
-  EXPECT_GT(l.halves.noise, 0.05 * 150.0);
+  const WindowPair l = last_two_windows(block_means(loud, 10, true), 5);
+  EXPECT_TRUE(l.agree(0.05));
+  EXPECT_GT(l.noise, 0.05 * 150.0);
 }
 
-TEST(Statistics, SteadyHalvesLeavesOutTheEarliestSamplesThatFillNoBlock) {
-  // 23 samples in 10 blocks of 2: the first 3 (a start-up spike) are left out.
+TEST(Statistics, BlockMeansLeaveOutTheSamplesThatFillNoBlock) {
+  // 23 samples in 10 blocks of 2: with `latest` the first 3 (a start-up spike) are left out.
   std::vector<double> v(23, 1.0);
   v[0] = v[1] = v[2] = 1000.0;
-  const SteadyHalves h = steady_halves(v, 5, 0.05);
-  EXPECT_TRUE(h.judged && h.within);
-  EXPECT_DOUBLE_EQ(h.halves.first, 1.0);
-  EXPECT_FALSE(steady_halves(std::vector<double>(9, 1.0), 5, 0.05).judged);
+  const std::vector<double> latest = block_means(v, 10, true);
+  ASSERT_EQ(latest.size(), 10u);
+  const WindowPair h = last_two_windows(latest, 5);
+  EXPECT_TRUE(h.within(0.05));
+  EXPECT_DOUBLE_EQ(h.first, 1.0);
+  // From the first sample on (block_average's blocks), the spike fills the first block.
+  EXPECT_DOUBLE_EQ(block_means(v, 10).front(), (1000.0 + 1000.0) / 2);
+  EXPECT_TRUE(block_means(std::vector<double>(9, 1.0), 10, true).empty());
 }
