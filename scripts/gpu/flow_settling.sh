@@ -4,8 +4,8 @@
 # rockprep's own 0.85, and the 50^3 crop at 2.0), rockprep writes the scene twice, with the
 # default flow stage (2,000 steps) and with LONG steps (default 15,000); rockflow runs both and
 # prints its region lines (each region's flow rate and whether it was steady). The long run's
-# regions.csv gives the spin-up: the flow rate along x of `block` and `box` in windows of 1,000
-# steps, against the sweep's warm-up rule (3.5 d^2 / (pi^2 nu) at the median pore, nu = 6.111 / n).
+# regions.csv gives the spin-up and the fall: the count and flow rate along x of `block` and `box`
+# in windows of 1,000 steps (window_table, bundle_env.sh).
 set -uo pipefail
 . "$(dirname "$0")/bundle_env.sh"
 W=/tmp/settle; mkdir -p $W
@@ -21,20 +21,7 @@ while read -r crop v; do
   done
   tag=${v}_${crop//[:,]/-}
   cp $W/run/regions.csv $O/regions_$tag.csv
-  python3 - $W/run/regions.csv $W/S/run.json <<'PY'
-import csv, json, math, sys
-run = json.load(open(sys.argv[2]))
-print("  body force", run["parameters"].get("body_force"), "pore sizes", run.get("pore_sizes", {}).get("median_rc"))
-rows = [r for r in csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith('#'))
-        if r['stage'] == 'flow' and r['type'] == 'fluid']
-for region in sorted({r['region'] for r in rows}):
-    q = [(int(r['step']), float(r['flow_rate_x'])) for r in rows if r['region'] == region]
-    w = {}
-    for s, x in q:
-        w.setdefault((s - q[0][0]) // 1000, []).append(x)
-    print(f"  {region}: mean flow rate x by 1,000 steps:",
-          " ".join(f"{sum(v) / len(v):.1f}" for k, v in sorted(w.items())))
-PY
+  window_table $W/run/regions.csv 1000
 done <<< "${CASES:-0:100,0:100,0:100 0.5
 0:100,0:100,0:100 0.85
 0:50,0:50,0:50 2.0}"

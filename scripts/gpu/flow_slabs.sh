@@ -23,24 +23,6 @@ for k in range(10):
 open(p, "w").write(s + "\n" + "\n".join(out))
 PY
 }
-window_table() {  # REGIONS.CSV WINDOW: count and flow rate x of every region by window
-  python3 - "$1" "$2" <<'PY'
-import csv, sys
-rows = [r for r in csv.DictReader(l for l in open(sys.argv[1]) if not l.startswith('#'))
-        if r['stage'] == 'flow']
-win = int(sys.argv[2])
-regions = list(dict.fromkeys(r['region'] for r in rows))
-first = int(rows[0]['step'])
-for what in ('count', 'flow_rate_x'):
-    print(f"  {what} by {win} steps")
-    for g in regions:
-        w = {}
-        for r in rows:
-            if r['region'] == g:
-                w.setdefault((int(r['step']) - first) // win, []).append(float(r[what]))
-        print(f"  {g:>6}:", " ".join(f"{sum(v) / len(v):8.1f}" for k, v in sorted(w.items()) if len(v) * 50 >= win // 2))
-PY
-}
 berea_prep 0:100,0:100,0:100 $W/A --seed 7 --rc-per-voxel 0.5 --flow-steps 15000 --tile-cache $W/cache
 add_slabs $W/A/scene.toml
 $B/rockflow run $W/A/scene.toml --backend cuda --out $W/a > $W/a.txt 2>&1
