@@ -131,6 +131,25 @@ std::vector<double> parse_numbers(const std::string& value, const std::string& w
   return numbers;
 }
 
+// A mesorock sidecar is our own file, so a field of the wrong kind is a damaged file, not an
+// option: refuse it here, naming the file, rather than let a later reader meet a type error.
+void check_sidecar(const nlohmann::json& sidecar, const std::string& name) {
+  const auto refuse = [&](const std::string& key, const char* kind) {
+    throw IoError(name + ": '" + key + "' must be " + kind);
+  };
+  for (const char* key : {"unit", "dtype"}) {
+    if (sidecar.contains(key) && !sidecar[key].is_string()) refuse(key, "a string");
+  }
+  if (sidecar.contains("origin_zyx")) {
+    const nlohmann::json& o = sidecar["origin_zyx"];
+    if (!o.is_array() || o.size() != 3) refuse("origin_zyx", "three numbers (z, y, x)");
+    for (const nlohmann::json& v : o) {
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        refuse("origin_zyx", "three finite numbers (z, y, x)");
+    }
+  }
+}
+
 }  // namespace
 
 fs::path sidecar_path(const fs::path& header) {
@@ -260,16 +279,17 @@ Volume read_mhd(const fs::path& header, const ReadLimits& limits, ReadReport* re
     try {
       std::ifstream s(sidecar_file);
       nlohmann::json j = nlohmann::json::parse(s);
-      if (j.value("generator", "") == "mesorock") sidecar = std::move(j);
+      if (j.is_object() && j.contains("generator") && j["generator"] == "mesorock")
+        sidecar = std::move(j);
     } catch (const std::exception&) {
       // Not our sidecar (or not JSON): MetaImage itself is complete without it.
     }
   }
   if (sidecar.is_object()) {
-    if (sidecar.contains("unit") && sidecar["unit"].is_string()) {
-      spacing.unit = sidecar["unit"].get<std::string>();
-    }
-    if (sidecar.value("dtype", "") == "bool" && dtype == DType::kUInt8) dtype = DType::kBool;
+    check_sidecar(sidecar, sidecar_file.string());
+    if (sidecar.contains("unit")) spacing.unit = sidecar["unit"].get<std::string>();
+    if (sidecar.contains("dtype") && sidecar["dtype"] == "bool" && dtype == DType::kUInt8)
+      dtype = DType::kBool;
   } else if (!spacing_text.empty() && report) {
     report->warnings.push_back(name +
                                ": MetaImage has no length unit; assuming mm (the ITK "

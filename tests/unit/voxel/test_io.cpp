@@ -316,6 +316,28 @@ TEST(MetaImage, ForeignHeadersLocalCompressedAndBigEndian) {
   EXPECT_TRUE(same_voxels(v, read_mhd(tmp / "b.mhd")));
 }
 
+TEST(MetaImage, OurSidecarWithAFieldOfTheWrongKindIsRefusedNamingIt) {
+  TempDir tmp;
+  write_bytes(tmp / "v.raw", std::string(60, '\0'));
+  write_bytes(tmp / "v.mhd",
+              "NDims = 3\nDimSize = 5 4 3\nElementType = MET_UCHAR\nElementDataFile = v.raw\n");
+  // A type error deep in nlohmann::json was what the MetaImage fuzzer found (tests/data/fuzz/mhd).
+  const std::pair<const char*, const char*> damaged[] = {
+      {R"({"generator": "mesorock", "dtype": 3})", "'dtype' must be a string"},
+      {R"({"generator": "mesorock", "unit": [1]})", "'unit' must be a string"},
+      {R"({"generator": "mesorock", "origin_zyx": ["a", 0, 0]})", "'origin_zyx' must be three"},
+      {R"({"generator": "mesorock", "origin_zyx": [0, 0]})", "'origin_zyx' must be three"}};
+  for (const auto& [text, message] : damaged) {
+    write_bytes(tmp / "v.json", text);
+    expect_error<IoError>([&] { read_mhd(tmp / "v.mhd"); }, {"v.json", message});
+  }
+  // A sidecar that is not ours (another generator, or not an object) is ignored, as before.
+  for (const char* text : {R"({"generator": 7, "dtype": 3})", R"(["generator", "mesorock"])"}) {
+    write_bytes(tmp / "v.json", text);
+    EXPECT_EQ(read_mhd(tmp / "v.mhd").dtype(), DType::kUInt8) << text;
+  }
+}
+
 TEST(MetaImage, DataSizeDisagreeingWithHeaderIsRefused) {
   TempDir tmp;
   write_bytes(tmp / "v.raw", std::string(59, '\0'));
