@@ -101,9 +101,18 @@ CalibratedViscosity calibrated_viscosity(const FluidSpec& fluid, CalibrationSize
   if (fs::exists(r.cache_file)) {
     std::ifstream in(r.cache_file);
     nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-    if (j.is_object() && j.contains("key") && j["key"].dump() == key && j.contains("viscosity")) {
-      r.value = j["viscosity"].at("value").get<double>();
-      r.error = j["viscosity"].at("error").get<double>();
+    // The viscosity a cache file holds for this key, when it holds a usable one.
+    const auto positive = [](const nlohmann::json& o, const char* name, bool zero_too) {
+      if (!o.is_object() || !o.contains(name) || !o[name].is_number()) return false;
+      const double v = o[name].get<double>();
+      return std::isfinite(v) && (v > 0 || (zero_too && v == 0));
+    };
+    const nlohmann::json eta =
+        j.is_object() && j.contains("viscosity") ? j["viscosity"] : nlohmann::json();
+    if (j.is_object() && j.contains("key") && j["key"].dump() == key &&
+        positive(eta, "value", false) && positive(eta, "error", true)) {
+      r.value = eta["value"].get<double>();
+      r.error = eta["error"].get<double>();
       r.source = "cache";
       r.record = j;
       return r;

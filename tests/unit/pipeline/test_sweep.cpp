@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
 
@@ -244,6 +245,19 @@ TEST(SweepCli, TinySweepWritesItsOutputsAndReusesTheCalibration) {
   EXPECT_EQ(k.at("viscosity").at("value").get<double>(), eta);
   // Same scene and seeds: the same flow rates.
   EXPECT_EQ(k.at("points"), j.at("points"));
+
+  // A damaged cache file (its key intact, its viscosity not a number) is calibrated again and
+  // replaced, not read as a json type error.
+  auto damaged = nlohmann::json::parse(mesorock::test::read_file(cache_file));
+  damaged["viscosity"]["value"] = "seven";
+  std::ofstream(cache_file) << damaged.dump();
+  const CommandResult third = sweep("c");
+  ASSERT_EQ(third.exit_code, 0) << third.err;
+  const auto c = nlohmann::json::parse(mesorock::test::read_file(dir / "c" / "sweep.json"));
+  EXPECT_EQ(c.at("viscosity").at("source"), "calibration");
+  EXPECT_EQ(c.at("viscosity").at("value").get<double>(), eta);
+  const auto repaired = nlohmann::json::parse(mesorock::test::read_file(cache_file));
+  EXPECT_EQ(repaired.at("viscosity").at("value").get<double>(), eta);
 }
 
 // `rockflow sweep SCENE --out DIR/o`, the start of the refusal tests' command lines.
