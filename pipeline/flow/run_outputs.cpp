@@ -516,7 +516,10 @@ RegionsOutput::RegionsOutput(RunContext& run) : run_(run) {
                           "step,time,stage,region,pressure,sxx,syy,szz,sxy,sxz,syz\n",
                       10);
   if (run.resumed) {
-    const nlohmann::json last = nlohmann::json::parse(run.resumed->text("regions.last"));
+    const nlohmann::json last = nlohmann::json::parse(run.resumed->text("regions.last"), nullptr,
+                                                      /*allow_exceptions=*/false);
+    if (!last.is_array())
+      throw IoError(run.resumed->file + ": /run/text/regions.last: not a JSON array (damaged)");
     for (size_t k = 0; k < regions_.size() && k < last.size(); ++k) regions_[k].last = last[k];
     // A checkpoint of an earlier version holds no flow series: the averages start afresh.
     for (size_t i = 0; i < regions_.size(); ++i)

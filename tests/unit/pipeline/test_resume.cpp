@@ -19,6 +19,8 @@
 #include <thread>
 #include <vector>
 
+#include "pipeline/flow/checkpoint_io.h"
+#include "pipeline/scene.h"
 #include "sim/checkpoint.h"
 #include "sim/particle_io.h"
 #include "support/test_support.h"
@@ -181,6 +183,23 @@ TEST_F(Resume, CtrlCLeavesACheckpointAndExits130) {
       mesorock::test::run_command(rockflow_run(other, out, " --resume"), dir_->path());
   EXPECT_EQ(wrong.exit_code, 2);
   EXPECT_NE(wrong.err.find("another scene"), std::string::npos) << wrong.err;
+  // A copy whose saved region record is not JSON: refused naming the checkpoint and the entry,
+  // not an internal error.
+  const fs::path damaged = *dir_ / "damaged";
+  fs::copy(out, damaged, fs::copy_options::recursive);
+  {
+    namespace mp = mesorock::pipeline;
+    const mp::Scene scene = mp::load_scene(scene_);
+    mp::ResumePoint point = mp::read_run_checkpoint(damaged / "checkpoint.h5", scene);
+    ASSERT_TRUE(point.record.has_text("regions.last"));
+    point.record.texts["regions.last"] = "[{\"lower\": ";
+    mp::write_run_checkpoint(damaged / "checkpoint.h5", point.state, scene, "{}", point.record);
+  }
+  const CommandResult broken =
+      mesorock::test::run_command(rockflow_run(scene_, damaged, " --resume"), dir_->path());
+  EXPECT_EQ(broken.exit_code, 2) << broken.err;
+  EXPECT_NE(broken.err.find("checkpoint.h5: /run/text/regions.last"), std::string::npos)
+      << broken.err;
 
   const CommandResult r =
       mesorock::test::run_command(rockflow_run(scene_, out, " --resume"), dir_->path());
