@@ -142,11 +142,11 @@ void check_sidecar(const nlohmann::json& sidecar, const std::string& name) {
   }
   if (sidecar.contains("origin_zyx")) {
     const nlohmann::json& o = sidecar["origin_zyx"];
-    if (!o.is_array() || o.size() != 3) refuse("origin_zyx", "three numbers (z, y, x)");
-    for (const nlohmann::json& v : o) {
-      if (!v.is_number() || !std::isfinite(v.get<double>()))
-        refuse("origin_zyx", "three finite numbers (z, y, x)");
-    }
+    const auto finite = [](const nlohmann::json& v) {
+      return v.is_number() && std::isfinite(v.get<double>());
+    };
+    if (!o.is_array() || o.size() != 3 || !std::all_of(o.begin(), o.end(), finite))
+      refuse("origin_zyx", "three finite numbers (z, y, x)");
   }
 }
 
@@ -279,8 +279,7 @@ Volume read_mhd(const fs::path& header, const ReadLimits& limits, ReadReport* re
     try {
       std::ifstream s(sidecar_file);
       nlohmann::json j = nlohmann::json::parse(s);
-      if (j.is_object() && j.contains("generator") && j["generator"] == "mesorock")
-        sidecar = std::move(j);
+      if (j.value("generator", "") == "mesorock") sidecar = std::move(j);
     } catch (const std::exception&) {
       // Not our sidecar (or not JSON): MetaImage itself is complete without it.
     }
@@ -288,8 +287,7 @@ Volume read_mhd(const fs::path& header, const ReadLimits& limits, ReadReport* re
   if (sidecar.is_object()) {
     check_sidecar(sidecar, sidecar_file.string());
     if (sidecar.contains("unit")) spacing.unit = sidecar["unit"].get<std::string>();
-    if (sidecar.contains("dtype") && sidecar["dtype"] == "bool" && dtype == DType::kUInt8)
-      dtype = DType::kBool;
+    if (sidecar.value("dtype", "") == "bool" && dtype == DType::kUInt8) dtype = DType::kBool;
   } else if (!spacing_text.empty() && report) {
     report->warnings.push_back(name +
                                ": MetaImage has no length unit; assuming mm (the ITK "

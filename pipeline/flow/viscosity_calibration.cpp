@@ -101,18 +101,19 @@ CalibratedViscosity calibrated_viscosity(const FluidSpec& fluid, CalibrationSize
   if (fs::exists(r.cache_file)) {
     std::ifstream in(r.cache_file);
     nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-    // The viscosity a cache file holds for this key, when it holds a usable one.
-    const auto positive = [](const nlohmann::json& o, const char* name, bool zero_too) {
-      if (!o.is_object() || !o.contains(name) || !o[name].is_number()) return false;
-      const double v = o[name].get<double>();
-      return std::isfinite(v) && (v > 0 || (zero_too && v == 0));
+    // A usable entry: this key, a positive viscosity and an error of at least zero (NaN for a
+    // missing or non-numeric field fails both comparisons).
+    const auto number = [&](const char* name) {
+      const nlohmann::json v = j["viscosity"].value(name, nlohmann::json());
+      return v.is_number() ? v.get<double>() : std::nan("");
     };
-    const nlohmann::json eta =
-        j.is_object() && j.contains("viscosity") ? j["viscosity"] : nlohmann::json();
-    if (j.is_object() && j.contains("key") && j["key"].dump() == key &&
-        positive(eta, "value", false) && positive(eta, "error", true)) {
-      r.value = eta["value"].get<double>();
-      r.error = eta["error"].get<double>();
+    const bool ours = j.is_object() && j.contains("key") && j["key"].dump() == key &&
+                      j.contains("viscosity") && j["viscosity"].is_object();
+    const double value = ours ? number("value") : std::nan(""),
+                 error = ours ? number("error") : std::nan("");
+    if (value > 0 && std::isfinite(value) && error >= 0 && std::isfinite(error)) {
+      r.value = value;
+      r.error = error;
       r.source = "cache";
       r.record = j;
       return r;
