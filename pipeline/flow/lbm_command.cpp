@@ -1,20 +1,25 @@
-// `rockflow lbm SOLID`: the Stokes permeability of a solid mask by lattice Boltzmann, the
-// continuum reference for the particle sweep (docs/lbm.md).
+// `rockflow lbm SOLID`: the Stokes permeability of a solid mask by lattice Boltzmann on a ladder
+// of refined lattices, extrapolated to the converged value: the continuum reference for the
+// particle sweep (lbm/ladder.h, docs/lbm.md).
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 #include <vector>
 
+#include "lbm/ladder.h"
+#include "lbm/lattice.h"
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/commands.h"
-#include "pipeline/flow/lbm_stokes.h"
+#include "pipeline/flow/interrupt.h"
 #include "sim/solid_grid.h"
 
 namespace mesorock::pipeline {
@@ -27,8 +32,9 @@ namespace {
 // every 10 s.
 class LbmProgressLine {
  public:
-  LbmProgressLine(double tolerance, std::int64_t max_steps)
-      : tolerance_(tolerance),
+  LbmProgressLine(std::string label, double tolerance, std::int64_t max_steps)
+      : label_(std::move(label)),
+        tolerance_(tolerance),
         max_steps_(max_steps),
         tty_(isatty(STDERR_FILENO)),
         start_(std::chrono::steady_clock::now()),
@@ -52,8 +58,8 @@ class LbmProgressLine {
                       std::max(0.0, (checks_.back().log_change - std::log(tolerance_)) / rate)));
     }
     std::ostringstream line;
-    line << "lbm: step " << step << ", change " << std::setprecision(2) << change << " (stop at "
-         << tolerance_ << "), " << static_cast<int>(elapsed) << " s, ETA ~"
+    line << "lbm: " << label_ << ": step " << step << ", change " << std::setprecision(2) << change
+         << " (stop at " << tolerance_ << "), " << static_cast<int>(elapsed) << " s, ETA ~"
          << static_cast<int>(elapsed / static_cast<double>(step) * static_cast<double>(left))
          << " s";
     if (tty_) {
@@ -73,6 +79,7 @@ class LbmProgressLine {
     std::int64_t step;
     double log_change;
   };
+  std::string label_;
   double tolerance_;
   std::int64_t max_steps_;
   bool tty_, drawn_ = false;
@@ -80,87 +87,194 @@ class LbmProgressLine {
   std::vector<Check> checks_;
 };
 
+// The options of `rockflow lbm` on the command line.
+struct LbmArgs {
+  SolverFlags flags;
+  lbm::LadderOptions ladder;
+  std::string mask, out = "out", axis = "x", refine = "auto", backend = "auto",
+                    precision = "double", warm_start = "on";
+};
+
+// "auto" -> {} (lbm::auto_rungs), "2" -> {2}, "1,2,3" -> {1, 2, 3}.
+std::vector<int> parse_refines(const std::string& text) {
+  if (text == "auto") return {};
+  std::vector<int> out;
+  for (const double v : parse_number_list(text, "lbm: --refine")) {
+    if (v != std::floor(v) || v < 1 || v > 8)
+      throw ConfigError("lbm: --refine: each rung must be a whole number 1 to 8 (got " + text +
+                        ")");
+    out.push_back(static_cast<int>(v));
+  }
+  return out;
+}
+
+// Before any work: the mask is a regular file, the output folder can be written, and an earlier
+// complete record is gone (a script waiting for lbm.json must not read the last run's).
+void check_before_work(const LbmArgs& a) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(a.mask, ec)) throw IoError(a.mask + ": no such file");
+  if (!fs::is_regular_file(a.mask, ec))
+    throw IoError(a.mask + ": not a regular file (a folder, FIFO or device)");
+  const fs::path out(a.out);
+  fs::create_directories(out, ec);
+  if (ec || !fs::is_directory(out))
+    throw IoError(a.out + ": cannot create output folder" + (ec ? ": " + ec.message() : ""));
+  const fs::path probe = out / (".lbm-write-test." + std::to_string(getpid()));
+  {
+    std::ofstream test(probe);
+    if (!(test << "x") || !(test.flush()))
+      throw IoError(a.out + ": cannot write in the output folder");
+  }
+  fs::remove(probe, ec);
+  if (fs::exists(out / "lbm.json", ec) && !fs::remove(out / "lbm.json", ec))
+    throw IoError((out / "lbm.json").string() + ": cannot remove the earlier result");
+}
+
+lbm::Backend chosen_backend(const std::string& name) {
+  if (name == "cpu") return lbm::Backend::CPU;
+  const std::string why = lbm::cuda_unavailable_reason();
+  if (name == "cuda") {
+    if (!why.empty()) throw DeviceError("lbm: --backend cuda: " + why);
+    return lbm::Backend::CUDA;
+  }
+  return why.empty() ? lbm::Backend::CUDA : lbm::Backend::CPU;
+}
+
+std::string k_text(const nlohmann::json& k) {
+  std::ostringstream s;
+  s << std::setprecision(6) << k["voxel2"].get<double>() << " voxel^2 = " << k["rc2"].get<double>()
+    << " rc^2";
+  if (k.contains("mD")) s << " = " << k["mD"].get<double>() << " mD";
+  return s.str();
+}
+
+// Prints the ladder's result: k_inf with its error and order, the finest rung, and warnings.
+void print_result(const nlohmann::json& report, const lbm::LadderResult& r) {
+  const auto& res = report["result"];
+  if (!r.percolates) {
+    std::cout << "permeability (LBM): 0: the pore space does not percolate along "
+              << report["options"]["axis"].get<std::string>() << " (porosity " << r.porosity
+              << ")\n";
+    return;
+  }
+  const lbm::Extrapolation& e = r.extrapolation;
+  std::cout << "permeability (LBM, " << (e.extrapolated ? "extrapolated" : "one lattice")
+            << "): " << k_text(res["permeability"]);
+  if (res["permeability_error"].is_object()) {
+    const auto& err = res["permeability_error"];
+    std::cout << " +- " << std::setprecision(2)
+              << err[err.contains("mD") ? "mD" : "rc2"].get<double>()
+              << (err.contains("mD") ? " mD" : " rc^2") << " (" << 100 * e.error_voxel2 / e.k_voxel2
+              << "%)";
+  }
+  std::cout << std::setprecision(6) << "\n  porosity " << r.porosity << "; order "
+            << (std::isfinite(e.order) ? std::to_string(e.order).substr(0, 4) : "not measured")
+            << (e.asymptotic ? " (asymptotic)" : " (NOT asymptotic)") << "; finest rung (refine "
+            << r.rungs.back().refine << "): " << k_text(res["finest_rung"]["permeability"]) << "; "
+            << r.seconds << " s\n";
+  for (const std::string& w : e.warnings) std::cerr << "rockflow: warning: lbm: " << w << "\n";
+}
+
 }  // namespace
 
 FlowCommand add_lbm_command(CLI::App& rockflow) {
-  struct Args {
-    SolverFlags flags;
-    LbmOptions options;
-    std::string mask, out = "out", axis = "x";
-    int refine = 2;
-  };
-  auto a = std::make_shared<Args>();
+  auto a = std::make_shared<LbmArgs>();
   CLI::App* lbm = rockflow.add_subcommand(
-      "lbm", "Stokes permeability of a solid mask by lattice Boltzmann (D3Q19 TRT; docs/lbm.md)");
-  LbmOptions& lo = a->options;
+      "lbm",
+      "Stokes permeability of a solid mask by lattice Boltzmann (D3Q19 TRT), converged by a "
+      "refinement ladder (docs/lbm.md)");
+  lbm::LbmOptions& lo = a->ladder.base;
   lbm->add_option("solid", a->mask, "the solid mask (solid.h5, sim/solid_grid.h)")->required();
   lbm->add_option("--out", a->out, "output folder (lbm.json)")->capture_default_str();
   lbm->add_option("--axis", a->axis, "flow axis x|y|z")
       ->check(CLI::IsMember({"x", "y", "z"}))
       ->capture_default_str();
-  lbm->add_option("--tau", lo.tau, "relaxation time, > 1/2 (k does not depend on it)")
+  lbm->add_option("--refine", a->refine,
+                  "lattice nodes per voxel edge: auto (a ladder 1,2,3,4 or 1,2,3 by size), one "
+                  "value (one lattice, not extrapolated) or an increasing list such as 2,3,4")
       ->capture_default_str();
-  lbm->add_option("--force", lo.force, "body force per voxel, lattice units")
+  lbm->add_option("--tau", lo.tau,
+                  "relaxation time at refine 1, > 1/2 (rung r: 1/2 + (tau - 1/2) r; k does not "
+                  "depend on it)")
+      ->check(number_check([](double v, const std::string& t) {
+        return v > 0.5 ? std::string() : "must be above 1/2 (got " + t + ")";
+      }))
+      ->capture_default_str();
+  lbm->add_option("--force", lo.force, "body force per node, lattice units (not zero)")
+      ->check(number_check([](double v, const std::string& t) {
+        return v != 0 && std::isfinite(v) ? std::string()
+                                          : "must be finite, not zero (got " + t + ")";
+      }))
       ->capture_default_str();
   lbm->add_option("--tolerance", lo.tolerance,
-                  "stop when the Darcy velocity changes less than this (relative) per check")
+                  "stop a rung when the Darcy velocity changes less than this (relative) per check")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   lbm->add_option("--check-every", lo.check_every, "steps between checks")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  lbm->add_option("--max-steps", lo.max_steps, "most steps")
+  lbm->add_option("--max-steps", lo.max_steps, "most steps per rung")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  add_solver_flags(*lbm, a->flags, false);
-  lbm->add_option("--refine", a->refine,
-                  "lattice nodes per voxel edge (1 to 8; k converges as it grows, docs/lbm.md)")
-      ->check(CLI::Range(1, 8))
+  lbm->add_option("--backend", a->backend, "cpu, cuda or auto (cuda when a device is usable)")
+      ->check(CLI::IsMember({"cpu", "cuda", "auto"}))
       ->capture_default_str();
+  lbm->add_option("--precision", a->precision,
+                  "populations in single or double precision (sums always in double)")
+      ->check(CLI::IsMember({"single", "double"}))
+      ->capture_default_str();
+  lbm->add_option("--warm-start", a->warm_start,
+                  "start each rung from the previous rung's flow (on) or from rest (off)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
+  add_solver_flags(*lbm, a->flags, false);
   return {
       lbm, [a](std::shared_ptr<sim::Communicator>) {
-        if (!std::filesystem::exists(a->mask)) throw IoError(a->mask + ": no such file");
+        lbm::LadderOptions o = a->ladder;
+        o.refines = parse_refines(a->refine);
+        o.warm_start = a->warm_start == "on";
+        o.base.axis = a->axis[0] - 'x';
+        o.base.threads = a->flags.threads;
+        o.base.precision =
+            a->precision == "single" ? lbm::Precision::Single : lbm::Precision::Double;
+        o.base.backend = chosen_backend(a->backend);
+        check_before_work(*a);
+        install_interrupt_handlers();  // Ctrl-C: exit 130 within a check, no lbm.json
         const sim::SolidMask image = sim::read_solid_file(a->mask);
-        const sim::SolidMask mask = refine_mask(image, a->refine);
-        LbmOptions options = a->options;
-        options.axis = a->axis[0] - 'x';
-        options.threads = a->flags.threads;
-        LbmProgressLine line(options.tolerance, options.max_steps);
-        options.progress = [&line](std::int64_t step, double change) { line.update(step, change); };
-        LbmResult r;
+        std::unique_ptr<LbmProgressLine> line;
+        o.base.poll = [] { throw_if_interrupted("during rockflow lbm (no lbm.json written)"); };
+        o.base.progress = [&line](std::int64_t step, double change) {
+          if (line) line->update(step, change);
+        };
+        o.rung_start = [&](int index, int refine, std::int64_t nodes) {
+          line = std::make_unique<LbmProgressLine>("refine " + std::to_string(refine) + " (rung " +
+                                                       std::to_string(index + 1) + ", about " +
+                                                       std::to_string(nodes) + " pore nodes)",
+                                                   o.base.tolerance, o.base.max_steps);
+        };
+        o.rung_done = [&](int, int refine, const lbm::LbmResult& r) {
+          line->finish();
+          std::cerr << "lbm: refine " << refine << ": k = " << std::setprecision(6)
+                    << r.k_voxel2 / (refine * refine) << " voxel^2, " << r.fluid_nodes << " nodes, "
+                    << r.steps << " steps" << (r.converged ? "" : " (NOT converged)") << ", "
+                    << std::setprecision(3) << r.seconds << " s (" << lbm::to_string(r.backend)
+                    << ", " << lbm::to_string(r.precision) << ")\n";
+        };
+        lbm::LadderResult r;
         try {
-          r = lbm_permeability(mask, options);
+          r = lbm::lbm_ladder(image, o);
+        } catch (const ConfigError& e) {
+          if (line) line->finish();
+          throw ConfigError(a->mask + ": " + e.what());  // the mask's problem: name it
         } catch (...) {
-          line.finish();
+          if (line) line->finish();
           throw;
         }
-        line.finish();
-        const std::filesystem::path out(a->out);
-        std::error_code ec;
-        std::filesystem::create_directories(out, ec);
-        if (ec) throw IoError(a->out + ": cannot create output folder: " + ec.message());
-        r.k_voxel2 /= a->refine * a->refine;  // in the image's voxels, not the lattice's
-        nlohmann::json report = lbm_report_json(a->mask, image, options, r);
-        report["options"]["refine"] = a->refine;
-        write_text_atomically(out / "lbm.json", report.dump(2) + "\n");
-        if (!r.percolates) {
-          std::cout << "permeability (LBM): 0: the pore space does not percolate along " << a->axis
-                    << " (porosity " << r.porosity << ")\n";
-        } else {
-          const auto& k = report["result"]["permeability"];
-          std::cout << "permeability (LBM): " << r.k_voxel2 << " voxel^2 = " << r.k_rc2 << " rc^2";
-          if (k.contains("mD"))
-            std::cout << " = " << k["nm2"].get<double>() << " nm^2 = " << k["mD"].get<double>()
-                      << " mD";
-          std::cout << " (porosity " << r.porosity << ", " << r.steps << " steps, "
-                    << (r.converged ? "converged" : "NOT converged") << ", " << r.seconds
-                    << " s)\n";
-          if (!r.converged)
-            std::cerr << "rockflow: warning: lbm: the Darcy velocity still changed by "
-                      << r.history.back().rel_change << " per check after " << r.steps
-                      << " steps (tolerance " << options.tolerance << "): raise --max-steps\n";
-        }
-        std::cout << "outputs: " << (out / "lbm.json").string() << "\n";
+        const nlohmann::json report = lbm::ladder_report_json(a->mask, image, o, r);
+        write_text_atomically(std::filesystem::path(a->out) / "lbm.json", report.dump(2) + "\n");
+        print_result(report, r);
+        std::cout << "outputs: " << (std::filesystem::path(a->out) / "lbm.json").string() << "\n";
         return static_cast<int>(kExitOk);
       }};
 }

@@ -16,9 +16,9 @@ else
   grep -q "^MESOROCK_ENABLE_CUDA:BOOL=ON" "$dir/CMakeCache.txt" ||
     { echo "build_bundle.sh: $dir is not a CUDA build" >&2; exit 1; }
 fi
-cmake --build "$dir" --parallel "$(nproc)" --target rockflow unit_sim unit_gpu unit_mpi
+cmake --build "$dir" --parallel "$(nproc)" --target rockflow unit_sim unit_gpu unit_mpi unit_lbm
 rm -rf .carry/gpu && mkdir -p .carry/gpu/bin .carry/gpu/lib
-cp "$dir/bin/rockflow" "$dir/bin/unit_sim" "$dir/bin/unit_gpu" "$dir/bin/unit_mpi" .carry/gpu/bin/
+cp "$dir/bin/rockflow" "$dir/bin/unit_sim" "$dir/bin/unit_gpu" "$dir/bin/unit_mpi" "$dir/bin/unit_lbm" .carry/gpu/bin/
 # Only the libraries the GPU machine lacks (toml++). HDF5 is not carried: the machine's own
 # libhdf5_serial.so.103 (1.10) has the same soname and brings its own dependency chain; likewise
 # Open MPI's libmpi.so.40 (4.1.6 there, 4.1.4 here: the same ABI).

@@ -1,5 +1,5 @@
-// The lattice Boltzmann permeability reference (pipeline/flow/lbm_stokes.h, docs/lbm.md) against
-// exact and tabulated Stokes solutions, its refusals, and `rockflow lbm`.
+// The lattice Boltzmann permeability reference on one lattice (lbm/solver.h, docs/lbm.md) against
+// exact and tabulated Stokes solutions, and its refusals.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,14 +10,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lbm/lattice.h"
+#include "lbm/solver.h"
 #include "mesorock/errors.h"
-#include "pipeline/flow/lbm_stokes.h"
 #include "sim/solid_grid.h"
 #include "support/test_support.h"
 
 namespace {
 
-namespace mp = mesorock::pipeline;
+namespace mp = mesorock::lbm;
 namespace ms = mesorock::sim;
 
 // A mask of nx x ny x nz voxels, solid where solid(i, j, k) holds.
@@ -188,6 +189,15 @@ TEST(LbmStokes, RefusesBadOptionsAndMasks) {
   EXPECT_NO_THROW(mp::lbm_permeability(skewed, with([](auto&) {})));
   const ms::SolidMask rock = make_mask(3, 3, 3, [](auto, auto, auto) { return true; });
   EXPECT_THROW(mp::lbm_permeability(rock, with([](auto&) {})), mesorock::ConfigError);
+  // No solid at all: the force accelerates the fluid without bound, so no k (it used to print
+  // one that measured only max_steps).
+  const ms::SolidMask open = make_mask(3, 3, 3, [](auto, auto, auto) { return false; });
+  try {
+    mp::lbm_permeability(open, with([](auto&) {}));
+    ADD_FAILURE() << "an all-pore mask got a permeability";
+  } catch (const mesorock::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("no solid voxel"), std::string::npos) << e.what();
+  }
   ms::SolidMask huge = m;  // checked before anything is allocated
   huge.dims = {std::int64_t(1) << 40, std::int64_t(1) << 40, 1};
   EXPECT_THROW(mp::lbm_permeability(huge, with([](auto&) {})), mesorock::LimitError);
@@ -273,54 +283,6 @@ TEST(LbmStokes, PermeabilityIndependentOfTheForce) {
   o.force = -3e-3;
   const double k2 = mp::lbm_permeability(slit(6, 8), o).k_voxel2;
   EXPECT_NEAR(k2 / k1 - 1, 0, 1e-8);
-}
-
-// `rockflow lbm` through the built binary.
-TEST(LbmStokes, CommandLineWritesTheReport) {
-  mesorock::test::TempDir dir;
-  ms::SolidMask m = slit(8, 10);
-  m.voxel = {0.5, 0.5, 0.5};
-  m.nm_per_rc = 20;
-  const auto file = dir / "slit.h5";
-  ms::write_solid_file(file, m, "test_lbm_stokes", "{}");
-  const auto out = dir / "lbm";
-  const std::string rockflow = mesorock::test::shell_quote(MESOROCK_ROCKFLOW);
-  const auto r = mesorock::test::run_command(
-      rockflow + " lbm " + mesorock::test::shell_quote(file.string()) + " --out " +
-          mesorock::test::shell_quote(out.string()) + " --axis x --threads 1 --tolerance 1e-10",
-      dir.path());
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("mD"), std::string::npos) << r.out;
-  const std::string text = mesorock::test::read_file(out / "lbm.json");
-  ASSERT_FALSE(text.empty());
-  const auto j = nlohmann::json::parse(text);
-  // The slit's exact nodal reference (see above) at the default refinement, two lattice nodes per
-  // voxel edge: in image voxels, (h/H) (h^2 + 1/(2 n^2)) / 12 with n = 2.
-  const double nodal = 0.8 * (64 + 0.125) / 12;
-  const auto& k = j["result"]["permeability"];
-  EXPECT_EQ(j["options"]["refine"].get<int>(), 2);
-  EXPECT_NEAR(k["voxel2"].get<double>() / nodal - 1, 0, 1e-6);
-  EXPECT_NEAR(k["rc2"].get<double>() / (0.25 * nodal) - 1, 0, 1e-6);
-  EXPECT_NEAR(k["mD"].get<double>() / (0.25 * nodal * 400 / 986.9233) - 1, 0, 1e-6);
-  EXPECT_TRUE(j["result"]["converged"].get<bool>());
-  EXPECT_EQ(j["input_file"].get<std::string>(), file.string());
-  EXPECT_FALSE(j["history"].empty());
-  EXPECT_TRUE(j.contains("mesorock_version"));
-
-  const std::string missing = (dir / "no_such_mask.h5").string();
-  const auto bad =
-      mesorock::test::run_command(rockflow + " lbm " + mesorock::test::shell_quote(missing) +
-                                      " --out " + mesorock::test::shell_quote(out.string()),
-                                  dir.path());
-  EXPECT_EQ(bad.exit_code, 2);
-  EXPECT_NE(bad.err.find("no_such_mask.h5"), std::string::npos) << bad.err;
-  EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
-
-  for (const char* args : {" --max-steps -5", " --threads -1", " --axis w", " --no-such-option"}) {
-    const auto u = mesorock::test::run_command(
-        rockflow + " lbm " + mesorock::test::shell_quote(file.string()) + args, dir.path());
-    EXPECT_EQ(u.exit_code, 2) << args;
-  }
 }
 
 }  // namespace
