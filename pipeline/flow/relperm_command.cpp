@@ -3,6 +3,8 @@
 #include <iostream>
 
 #include "mesorock/errors.h"
+#include "mesorock/output_lock.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/commands.h"
 #include "pipeline/flow/relperm.h"
@@ -120,6 +122,8 @@ FlowCommand add_relperm_command(CLI::App& rockflow) {
             rc.sweep.out_dir = a->out;
             rc.sweep.run.sim = so;
             rc.placement = parse_placement(a->placement);
+            const OutputLock lock(a->out);               // one owner per folder, before any work
+            lock.remove_earlier_record("relperm.json");  // a failure must not leave the old one
             rc.sweep_json = a->sweep_json;
             rc.write_states = !a->no_states;
             if (!a->types.empty()) rc.sweep.types = {a->types};

@@ -3,8 +3,11 @@
 #include <stdexcept>
 
 #include "mesorock/errors.h"
+#include "mesorock/output_lock.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/commands.h"
+#include "pipeline/flow/interrupt.h"
 #include "pipeline/flow/sweep.h"
 #include "pipeline/scene.h"
 
@@ -130,6 +133,12 @@ FlowCommand add_sweep_command(CLI::App& rockflow) {
             sc.run.sim = so;
             sc.forces = parse_forces(a->forces);
             if (!a->types.empty()) sc.types = split_items(a->types);
+            const OutputLock lock(a->out);             // one owner per folder, before any work
+            lock.remove_earlier_record("sweep.json");  // a failure must not leave the old one
+            exit_on_interrupt("rockflow",
+                              "nothing was written to " + a->out +
+                                  " (the outputs appear when the sweep completes; a finished "
+                                  "viscosity calibration stays cached): run the sweep again");
             if (a->fluid_density != 0) sc.fluid_density = a->fluid_density;
             if (a->viscosity != 0) sc.viscosity = a->viscosity;
             if (a->viscosity_error != 0) sc.viscosity_error = a->viscosity_error;
