@@ -452,6 +452,7 @@ void read_init(const Context& c, Table& top, Scene& s) {
       if (!fs::exists(in.file, ec)) fail(c, t.key("file"), "no such file: " + in.file.string());
       if (!fs::is_regular_file(in.file, ec))
         fail(c, t.key("file"), "not a regular file: " + in.file.string());
+      s.named_files.push_back(in.file);
     } else {
       const bool random = in.kind == InitSpec::Kind::Random;
       const char* kind_text = random ? "when kind = \"random\"" : "when kind = \"lattice\"";
@@ -613,6 +614,7 @@ void read_solid(const Context& c, Table& top, Scene& s) {
   } catch (const IoError& e) {
     throw IoError(c.file + ": solid.file: " + e.what());
   }
+  s.named_files.push_back(path);
   const sim::SolidMask& m = *spec.mask;
   for (int a = 0; a < 3; ++a) {
     const auto k = static_cast<size_t>(a);
