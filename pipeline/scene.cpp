@@ -1010,7 +1010,10 @@ bool stage_is_averaged(const Scene& scene, const std::string& stage_name) {
 
 Scene load_scene(const fs::path& path) {
   std::error_code ec;
-  if (fs::is_directory(path, ec)) throw IoError(path.string() + ": cannot open scene file");
+  // Regular files only: a FIFO blocked the open forever, and /dev/zero was read without end.
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
+    throw IoError(path.string() + ": not a regular file (a folder, FIFO or device): cannot read " +
+                  "it as a scene file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path.string() + ": cannot open scene file");
   std::ostringstream text;
