@@ -86,6 +86,20 @@ TEST(MemoryGuard, AHugeInitCountIsRefusedBeforeAnyParticle) {
 
 TEST(MemoryGuard, BlocksWithinTheLimitEachButNotTogetherAreRefused) {
   TempDir dir;
+// Issue 58, item 2: 200,000 particles in a 5^3 box (rho = 1600) passed the guard's 406 bytes a
+// particle, which assume about 15 neighbour pairs each; the half list grew past 10 GB and the
+// process aborted on std::bad_alloc (exit 134) after 18 s under a 4 GB cap. The list is sized
+// from the density now: refused before any particle.
+TEST(MemoryGuard, ADenseBoxIsRefusedBeforeAnyParticleUnderACap) {
+  TempDir dir;
+  const fs::path scene = write_scene(dir, scene_with(random_block("200000"), 5));
+  const Timed t = rockflow_capped("run " + shell_quote(scene.string()) + " --out out --threads 1",
+                                  dir, 4000000);
+  expect_refused(t, "init[0].count");
+  EXPECT_NE(t.r.err.find("host memory"), std::string::npos) << t.r.err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
   const fs::path scene =
       write_scene(dir, scene_with(random_block("2000000000") + random_block("2000000000")));
   const Timed t = rockflow_capped("run " + shell_quote(scene.string()) + " --out out", dir);
