@@ -7,11 +7,14 @@
 // - --threads is bounded by a small multiple of the cores: 100,000 threads segfaulted and 1,000
 //   aborted inside libgomp under a memory cap.
 // - positive_value() for a length scale: 0 used to read as "not given".
+// - usage_error_line(): CLI11's own errors in the one-line form of every other error.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cstdlib>
 #include <functional>
+#include <regex>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -36,6 +39,31 @@ inline CLI::Validator positive_value() {
   return number_check([](double v, const std::string& text) {
     return v > 0 ? std::string() : "must be positive (got " + text + ")";
   });
+}
+
+inline CLI::Validator non_negative_value() {
+  return number_check([](double v, const std::string& text) {
+    return v >= 0 ? std::string() : "must not be negative (got " + text + ")";
+  });
+}
+
+// A CLI11 usage error as one line, "TOOL: error: --option: what (see TOOL --help)". CLI11 printed
+// two lines without the tool's name, and its range checks wrote their upper bound, the largest
+// double, with all its 309 digits ("--threads -1": "Value -1 not in range 0.000000 to 1797...").
+inline std::string usage_error_line(const std::string& tool, const CLI::ParseError& e) {
+  std::string what = e.what();
+  static const std::regex unbounded(
+      "Value (.*) not in range (-?[0-9.]+) to [0-9]{30,}(\\.[0-9]*)?");
+  std::smatch m;
+  if (std::regex_search(what, m, unbounded)) {
+    std::ostringstream lower;
+    lower << std::stod(m[2].str());
+    what = m.prefix().str() + "must be a number >= " + lower.str() + " (got " + m[1].str() + ")" +
+           m.suffix().str();
+  }
+  for (char& c : what)
+    if (c == '\n' || c == '\r') c = ' ';
+  return tool + ": error: " + what + " (see " + tool + " --help)";
 }
 
 inline void bound_count_options(CLI::App& app) {

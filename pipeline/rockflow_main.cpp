@@ -1,6 +1,7 @@
 // rockflow: the mDPD flow solver's command line. Each subcommand lives in its own file
 // (pipeline/flow/*_command.cpp, declared in pipeline/flow/commands.h), as rockprep's do.
 #include <CLI/CLI.hpp>
+#include <iostream>
 #include <string>
 #include <vector>
 
@@ -32,8 +33,9 @@ int main(int argc, char** argv) {
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-      const int code = app.exit(e);
-      return code == 0 ? 0 : mp::kExitBadInput;
+      if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+      std::cerr << mp::usage_error_line("rockflow", e) << "\n";
+      return mp::kExitBadInput;
     }
     for (const mp::FlowCommand& command : commands)
       if (command.app->parsed()) return command.run(mpi.world());

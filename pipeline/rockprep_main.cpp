@@ -33,8 +33,8 @@ int main(int argc, char** argv) {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
       if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-      // One line, like every other rockprep error.
-      std::cerr << "rockprep: error: " << e.what() << " (see rockprep --help)\n";
+      // One line, like every other rockprep error (pipeline/cli_checks.h).
+      std::cerr << mesorock::pipeline::usage_error_line("rockprep", e) << "\n";
       return mesorock::pipeline::kExitBadInput;
     }
     for (const prep::Command& command : commands) {

@@ -452,6 +452,7 @@ void read_init(const Context& c, Table& top, Scene& s) {
       if (!fs::exists(in.file, ec)) fail(c, t.key("file"), "no such file: " + in.file.string());
       if (!fs::is_regular_file(in.file, ec))
         fail(c, t.key("file"), "not a regular file: " + in.file.string());
+      s.named_files.push_back(in.file);
     } else {
       const bool random = in.kind == InitSpec::Kind::Random;
       const char* kind_text = random ? "when kind = \"random\"" : "when kind = \"lattice\"";
@@ -613,6 +614,7 @@ void read_solid(const Context& c, Table& top, Scene& s) {
   } catch (const IoError& e) {
     throw IoError(c.file + ": solid.file: " + e.what());
   }
+  s.named_files.push_back(path);
   const sim::SolidMask& m = *spec.mask;
   for (int a = 0; a < 3; ++a) {
     const auto k = static_cast<size_t>(a);
@@ -1008,7 +1010,10 @@ bool stage_is_averaged(const Scene& scene, const std::string& stage_name) {
 
 Scene load_scene(const fs::path& path) {
   std::error_code ec;
-  if (fs::is_directory(path, ec)) throw IoError(path.string() + ": cannot open scene file");
+  // Regular files only: a FIFO blocked the open forever, and /dev/zero was read without end.
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
+    throw IoError(path.string() + ": not a regular file (a folder, FIFO or device): cannot read " +
+                  "it as a scene file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path.string() + ": cannot open scene file");
   std::ostringstream text;
@@ -1053,6 +1058,11 @@ std::string init_key(const InitSpec& in, size_t k) {
 
 }  // namespace
 
+namespace {
+// The half list's share of host_bytes_per_particle (sim/memory_budget.h), at rho = 7.
+constexpr double kHalfListBytesAtRho7 = 128;
+}  // namespace
+
 void check_memory_for(const Scene& scene, const sim::SimulationOptions& options, int copies) {
   copies = std::max(1, copies);
   const std::string file = scene.path.string();
@@ -1063,6 +1073,24 @@ void check_memory_for(const Scene& scene, const sim::SimulationOptions& options,
     total += counts.back();
   }
   const sim::Precision precision = scene.model.precision;
+  // The CPU's half list holds the pairs within reach of each particle, which grow with the number
+  // density: host_bytes_per_particle assumes rho = 7 (128 B of list). 200,000 particles in a 5^3
+  // box (rho = 1600) passed the guard, the list grew past 10 GB and the process aborted on
+  // std::bad_alloc. The densest [[init]] block (or the whole box, if denser) sizes the list here.
+  double density =
+      total / std::max(1e-300, scene.box.length(0) * scene.box.length(1) * scene.box.length(2));
+  for (size_t k = 0; k < scene.init.size(); ++k) {
+    const InitSpec& in = scene.init[k];
+    double volume = 1;
+    for (int a = 0; a < 3; ++a)
+      volume *= in.kind == InitSpec::Kind::File
+                    ? scene.box.length(a)
+                    : in.hi[static_cast<size_t>(a)] - in.lo[static_cast<size_t>(a)];
+    if (volume > 0) density = std::max(density, counts[k] / volume);
+  }
+  const double list_bytes = options.backend == sim::BackendKind::CUDA
+                                ? 0.0
+                                : kHalfListBytesAtRho7 * std::max(0.0, density / 7 - 1);
   if (total > kMaxParticles)
     throw LimitError(file + ": [[init]] blocks: total " + count_text(total) +
                      " particles, more than the limit of " + num(kMaxParticles) +
@@ -1097,8 +1125,8 @@ void check_memory_for(const Scene& scene, const sim::SimulationOptions& options,
         count_text(n) + " particles (" + num(per_particle) + " bytes each): a run " +
         sim::memory_shortfall(n * per_particle + fixed, have, what));
   };
-  refuse_if_short(sim::host_bytes_per_particle(precision), cells * sim::kHostBytesPerCell,
-                  sim::host_memory_available(), "host");
+  refuse_if_short(sim::host_bytes_per_particle(precision) + list_bytes,
+                  cells * sim::kHostBytesPerCell, sim::host_memory_available(), "host");
   if (options.backend == sim::BackendKind::CUDA)
     refuse_if_short(sim::device_bytes_per_particle(precision),
                     cells * sim::kDeviceBytesPerCell + voxels,

@@ -86,6 +86,9 @@ struct Scene {
   // How a run under mpirun splits the box over its ranks ([decomposition]; ignored by one rank).
   sim::DecompositionOptions decomposition;
   std::string source_text;  // the file's text, recorded in outputs
+  // The files the scene names ([solid] file, [[init]] files), resolved: their contents are
+  // hashed into a run's checkpoints and compared on resume.
+  std::vector<std::filesystem::path> named_files;
 };
 
 // Reads and validates a scene. Throws ConfigError/IoError with a one-line "file: key: problem".

@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <type_traits>
 
 #include "mesorock/atomic_file.h"
+#include "mesorock/checksum.h"
 #include "mesorock/errors.h"
 #include "mesorock/version.h"
 #include "sim/hdf5_util.h"
@@ -150,14 +153,6 @@ std::string read_text(hid_t group, const std::string& name, const std::string& w
   return std::string(bytes.begin(), bytes.end());
 }
 
-template <class T>
-T read_scalar(hid_t group, const std::string& name, const std::string& where, hid_t mem,
-              H5T_class_t want, const std::string& file) {
-  const auto v = read_array<T>(group, name, where, mem, want, file);
-  if (v.size() != 1) fail(file, where, "expected one value");
-  return v[0];
-}
-
 std::vector<std::string> member_names(hid_t group, const std::string& where,
                                       const std::string& file) {
   H5G_info_t info;
@@ -187,6 +182,94 @@ std::vector<double> SimulationState::*const kRealArrays[14] = {
 
 constexpr int kSlabFields = 7;
 
+// Checksums of a checkpoint's datasets (mesorock/checksum.h): "HEX PATH" a line, in path order,
+// then the table's own sum as "HEX /meta/checksums", so a damaged table is named as such.
+class Checksums {
+ public:
+  void add(const std::string& where, const std::string& text) {
+    sums_[where] = checksum_hex(text.data(), text.size());
+  }
+  template <class T>
+  void add(const std::string& where, const std::vector<T>& v) {
+    sums_[where] = checksum_hex(v);
+  }
+  std::string table() const {
+    std::string t;
+    for (const auto& [where, hex] : sums_) t += hex + " " + where + "\n";
+    return t + checksum_hex(t.data(), t.size()) + " /meta/checksums\n";
+  }
+  // IoError naming the first dataset whose bytes differ from the sum written with it.
+  void verify(const std::string& table, const std::string& file) const {
+    const std::string own = " /meta/checksums\n";
+    const std::size_t last = table.size() >= own.size() + 16 ? table.size() - own.size() - 16 : 0;
+    if (table.size() < own.size() + 16 || table.compare(last + 16, own.size(), own) != 0 ||
+        (last > 0 && table[last - 1] != '\n') ||
+        checksum_hex(table.data(), last) != table.substr(last, 16))
+      fail(file, "/meta/checksums", "damaged (its own checksum does not match): " + kCannot);
+    std::map<std::string, std::string> written;
+    std::size_t at = 0;
+    while (at < last) {
+      const std::size_t end = table.find('\n', at);
+      if (end == std::string::npos || end - at < 18 || table[at + 16] != ' ')
+        fail(file, "/meta/checksums", "damaged: " + kCannot);
+      written[table.substr(at + 17, end - at - 17)] = table.substr(at, 16);
+      at = end + 1;
+    }
+    for (const auto& [where, hex] : sums_) {
+      const auto it = written.find(where);
+      if (it == written.end())
+        fail(file, where,
+             "not listed in /meta/checksums (added after the checkpoint was written): " + kCannot);
+      if (it->second != hex)
+        fail(file, where, "checksum mismatch: the checkpoint is damaged: " + kCannot);
+    }
+    for (const auto& [where, hex] : written)
+      if (!sums_.count(where)) fail(file, where, "missing (listed in /meta/checksums): " + kCannot);
+  }
+
+ private:
+  inline static const std::string kCannot =
+      "this checkpoint cannot be resumed (remove it to start the run afresh)";
+  std::map<std::string, std::string> sums_;
+};
+
+// The state's checks once its checksums hold: slabs, precision, lengths, finite values.
+void check_state(SimulationState& s, const std::vector<double>& slabs, const std::string& precision,
+                 const std::string& file) {
+  if (slabs.size() % kSlabFields != 0) fail(file, "/checkpoint/slabs", "wrong length");
+  for (size_t k = 0; k + kSlabFields <= slabs.size(); k += kSlabFields) {
+    RigidSlabBody b;
+    b.type = static_cast<int>(slabs[k]);
+    b.axis = static_cast<int>(slabs[k + 1]);
+    b.applied_force = slabs[k + 2];
+    b.mass = slabs[k + 3];
+    b.velocity = slabs[k + 4];
+    b.half_velocity = slabs[k + 5];
+    b.force = slabs[k + 6];
+    s.slabs.push_back(b);
+  }
+  if (precision != "single" && precision != "double")
+    fail(file, "/checkpoint/precision", "must be single or double (got " + precision + ")");
+  s.precision = precision == "single" ? Precision::Single : Precision::Double;
+  try {
+    s.check();
+  } catch (const ConfigError& e) {
+    fail(file, "/checkpoint", e.what());
+  }
+  // A NaN here reached the solver's input check as "particle N has a non-finite position or
+  // velocity", naming no file.
+  for (int a = 0; a < 14; ++a) {
+    const std::vector<double>& v = s.*kRealArrays[a];
+    const auto bad = std::find_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); });
+    if (bad == v.end()) continue;
+    const auto i = static_cast<size_t>(bad - v.begin());
+    fail(file, std::string("/checkpoint/") + kRealNames[a],
+         "entry " + std::to_string(i) + " (particle id " + std::to_string(s.id[i]) + ") is " +
+             (std::isnan(*bad) ? "NaN" : "infinite") +
+             ": this checkpoint cannot be resumed (remove it to start the run afresh)");
+  }
+}
+
 }  // namespace
 
 void write_checkpoint(const fs::path& path, const CheckpointFile& c) {
@@ -197,8 +280,19 @@ void write_checkpoint(const fs::path& path, const CheckpointFile& c) {
   silence_hdf5_errors();
   write_atomically(path, [&](const fs::path& tmp) {
     Handle f = create_file(tmp, file);
+    Checksums sums;  // of every dataset, written last (/meta/checksums)
+    const auto text = [&](hid_t g, const std::string& name, const std::string& where,
+                          const std::string& t) {
+      write_text(g, name, where, t, file);
+      sums.add(where, t);
+    };
+    const auto array = [&](hid_t g, const std::string& name, const std::string& where, hid_t type,
+                           const auto& data) {
+      write_array(g, name, where, type, data, file);
+      sums.add(where, data);
+    };
+    Handle meta = create_group(f.get(), "meta", "/meta", file);
     {
-      Handle meta = create_group(f.get(), "meta", "/meta", file);
       const std::pair<const char*, std::string> texts[] = {
           {"format", "mesorock-checkpoint"},
           {"format_version", std::to_string(kCheckpointFormatVersion)},
@@ -207,42 +301,42 @@ void write_checkpoint(const fs::path& path, const CheckpointFile& c) {
           {"created_by", c.created_by},
           {"scene_path", c.scene_path},
           {"scene_text", c.scene_text},
-          {"parameters", c.parameters_json}};
-      for (const auto& [name, text] : texts)
-        write_text(meta.get(), name, std::string("/meta/") + name, text, file);
+          {"parameters", c.parameters_json},
+          {"input_files", c.input_files}};
+      for (const auto& [name, t] : texts) text(meta.get(), name, std::string("/meta/") + name, t);
     }
     {
       const SimulationState& s = c.state;
       Handle g = create_group(f.get(), "checkpoint", "/checkpoint", file);
       for (int a = 0; a < 14; ++a)
-        write_array(g.get(), kRealNames[a], std::string("/checkpoint/") + kRealNames[a],
-                    H5T_NATIVE_DOUBLE, s.*kRealArrays[a], file);
-      write_array(g.get(), "type", "/checkpoint/type", H5T_NATIVE_INT32, s.type, file);
-      write_array(g.get(), "origin", "/checkpoint/origin", H5T_NATIVE_INT32, s.origin, file);
-      write_array(g.get(), "id", "/checkpoint/id", H5T_NATIVE_INT64, s.id, file);
+        array(g.get(), kRealNames[a], std::string("/checkpoint/") + kRealNames[a],
+              H5T_NATIVE_DOUBLE, s.*kRealArrays[a]);
+      array(g.get(), "type", "/checkpoint/type", H5T_NATIVE_INT32, s.type);
+      array(g.get(), "origin", "/checkpoint/origin", H5T_NATIVE_INT32, s.origin);
+      array(g.get(), "id", "/checkpoint/id", H5T_NATIVE_INT64, s.id);
       std::vector<double> slabs;
       for (const RigidSlabBody& b : s.slabs)
         for (double v : {double(b.type), double(b.axis), b.applied_force, b.mass, b.velocity,
                          b.half_velocity, b.force})
           slabs.push_back(v);
-      write_array(g.get(), "slabs", "/checkpoint/slabs", H5T_NATIVE_DOUBLE, slabs, file);
-      write_array(g.get(), "step", "/checkpoint/step", H5T_NATIVE_UINT64,
-                  std::vector<std::uint64_t>{s.step}, file);
-      write_array(g.get(), "dt", "/checkpoint/dt", H5T_NATIVE_DOUBLE, std::vector<double>{s.dt},
-                  file);
-      write_array(g.get(), "wall_corrections", "/checkpoint/wall_corrections", H5T_NATIVE_UINT64,
-                  std::vector<std::uint64_t>{s.wall_corrections}, file);
-      write_text(g.get(), "precision", "/checkpoint/precision", to_string(s.precision), file);
+      array(g.get(), "slabs", "/checkpoint/slabs", H5T_NATIVE_DOUBLE, slabs);
+      array(g.get(), "step", "/checkpoint/step", H5T_NATIVE_UINT64,
+            std::vector<std::uint64_t>{s.step});
+      array(g.get(), "dt", "/checkpoint/dt", H5T_NATIVE_DOUBLE, std::vector<double>{s.dt});
+      array(g.get(), "wall_corrections", "/checkpoint/wall_corrections", H5T_NATIVE_UINT64,
+            std::vector<std::uint64_t>{s.wall_corrections});
+      text(g.get(), "precision", "/checkpoint/precision", to_string(s.precision));
     }
     {
       Handle run = create_group(f.get(), "run", "/run", file);
-      Handle text = create_group(run.get(), "text", "/run/text", file);
-      for (const auto& [name, t] : c.texts)
-        write_text(text.get(), name, "/run/text/" + name, t, file);
+      Handle texts = create_group(run.get(), "text", "/run/text", file);
+      for (const auto& [name, t] : c.texts) text(texts.get(), name, "/run/text/" + name, t);
       Handle numbers = create_group(run.get(), "numbers", "/run/numbers", file);
       for (const auto& [name, v] : c.numbers)
-        write_array(numbers.get(), name, "/run/numbers/" + name, H5T_NATIVE_DOUBLE, v, file);
+        array(numbers.get(), name, "/run/numbers/" + name, H5T_NATIVE_DOUBLE, v);
     }
+    write_text(meta.get(), "checksums", "/meta/checksums", sums.table(), file);
+    if (!meta.close()) fail(file, "/meta", "write failed");
     if (!f.close()) fail(file, "", "write failed");
   });
 }
@@ -251,91 +345,81 @@ CheckpointFile read_checkpoint(const fs::path& path) {
   const std::string file = path.string();
   silence_hdf5_errors();
   if (!fs::exists(path)) throw IoError(file + ": no checkpoint here");
+  if (!fs::is_regular_file(path)) throw IoError(file + ": not a regular file");
   Handle f = checked(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, file, "",
                      "cannot open as HDF5");
   CheckpointFile c;
+  Checksums sums;  // of what was read, compared with /meta/checksums before anything is used
+  const auto text = [&](hid_t g, const std::string& name, const std::string& where) {
+    std::string t = read_text(g, name, where, file);
+    sums.add(where, t);
+    return t;
+  };
+  std::string table;
   {
     Handle meta = open_group(f.get(), "meta", "/meta", file);
-    if (read_text(meta.get(), "format", "/meta/format", file) != "mesorock-checkpoint")
+    if (text(meta.get(), "format", "/meta/format") != "mesorock-checkpoint")
       fail(file, "/meta/format", "not a mesorock checkpoint");
-    const std::string version =
-        read_text(meta.get(), "format_version", "/meta/format_version", file);
+    const std::string version = text(meta.get(), "format_version", "/meta/format_version");
     if (version != std::to_string(kCheckpointFormatVersion))
       fail(file, "/meta/format_version",
            "format version " + version + ", this build reads " +
                std::to_string(kCheckpointFormatVersion));
-    c.mesorock_version = read_text(meta.get(), "mesorock_version", "/meta/mesorock_version", file);
-    c.git_commit = read_text(meta.get(), "git_commit", "/meta/git_commit", file);
-    c.created_by = read_text(meta.get(), "created_by", "/meta/created_by", file);
-    c.scene_path = read_text(meta.get(), "scene_path", "/meta/scene_path", file);
-    c.scene_text = read_text(meta.get(), "scene_text", "/meta/scene_text", file);
-    c.parameters_json = read_text(meta.get(), "parameters", "/meta/parameters", file);
+    c.mesorock_version = text(meta.get(), "mesorock_version", "/meta/mesorock_version");
+    c.git_commit = text(meta.get(), "git_commit", "/meta/git_commit");
+    c.created_by = text(meta.get(), "created_by", "/meta/created_by");
+    c.scene_path = text(meta.get(), "scene_path", "/meta/scene_path");
+    c.scene_text = text(meta.get(), "scene_text", "/meta/scene_text");
+    c.parameters_json = text(meta.get(), "parameters", "/meta/parameters");
+    c.input_files = text(meta.get(), "input_files", "/meta/input_files");
+    table = read_text(meta.get(), "checksums", "/meta/checksums", file);
   }
+  std::vector<double> slabs;
+  std::string precision;
   {
     SimulationState& s = c.state;
     Handle g = open_group(f.get(), "checkpoint", "/checkpoint", file);
+    const auto array = [&](const char* name, auto& to, hid_t mem, H5T_class_t want) {
+      const std::string where = std::string("/checkpoint/") + name;
+      using T = typename std::decay_t<decltype(to)>::value_type;
+      to = read_array<T>(g.get(), name, where, mem, want, file);
+      sums.add(where, to);
+    };
     for (int a = 0; a < 14; ++a)
-      s.*kRealArrays[a] =
-          read_array<double>(g.get(), kRealNames[a], std::string("/checkpoint/") + kRealNames[a],
-                             H5T_NATIVE_DOUBLE, H5T_FLOAT, file);
-    s.type = read_array<std::int32_t>(g.get(), "type", "/checkpoint/type", H5T_NATIVE_INT32,
-                                      H5T_INTEGER, file);
-    s.origin = read_array<std::int32_t>(g.get(), "origin", "/checkpoint/origin", H5T_NATIVE_INT32,
-                                        H5T_INTEGER, file);
-    s.id = read_array<std::int64_t>(g.get(), "id", "/checkpoint/id", H5T_NATIVE_INT64, H5T_INTEGER,
-                                    file);
-    const auto slabs = read_array<double>(g.get(), "slabs", "/checkpoint/slabs", H5T_NATIVE_DOUBLE,
-                                          H5T_FLOAT, file);
-    if (slabs.size() % kSlabFields != 0) fail(file, "/checkpoint/slabs", "wrong length");
-    for (size_t k = 0; k + kSlabFields <= slabs.size(); k += kSlabFields) {
-      RigidSlabBody b;
-      b.type = static_cast<int>(slabs[k]);
-      b.axis = static_cast<int>(slabs[k + 1]);
-      b.applied_force = slabs[k + 2];
-      b.mass = slabs[k + 3];
-      b.velocity = slabs[k + 4];
-      b.half_velocity = slabs[k + 5];
-      b.force = slabs[k + 6];
-      s.slabs.push_back(b);
-    }
-    s.step = read_scalar<std::uint64_t>(g.get(), "step", "/checkpoint/step", H5T_NATIVE_UINT64,
-                                        H5T_INTEGER, file);
-    s.dt = read_scalar<double>(g.get(), "dt", "/checkpoint/dt", H5T_NATIVE_DOUBLE, H5T_FLOAT, file);
-    s.wall_corrections =
-        read_scalar<std::uint64_t>(g.get(), "wall_corrections", "/checkpoint/wall_corrections",
-                                   H5T_NATIVE_UINT64, H5T_INTEGER, file);
-    const std::string precision = read_text(g.get(), "precision", "/checkpoint/precision", file);
-    if (precision != "single" && precision != "double")
-      fail(file, "/checkpoint/precision", "must be single or double (got " + precision + ")");
-    s.precision = precision == "single" ? Precision::Single : Precision::Double;
-    try {
-      s.check();
-    } catch (const ConfigError& e) {
-      fail(file, "/checkpoint", e.what());
-    }
-    // A NaN here reached the solver's input check as "particle N has a non-finite position or
-    // velocity", naming no file.
-    for (int a = 0; a < 14; ++a) {
-      const std::vector<double>& v = s.*kRealArrays[a];
-      const auto bad = std::find_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); });
-      if (bad == v.end()) continue;
-      const auto i = static_cast<size_t>(bad - v.begin());
-      fail(file, std::string("/checkpoint/") + kRealNames[a],
-           "entry " + std::to_string(i) + " (particle id " + std::to_string(s.id[i]) + ") is " +
-               (std::isnan(*bad) ? "NaN" : "infinite") +
-               ": this checkpoint cannot be resumed (remove it to start the run afresh)");
-    }
+      array(kRealNames[a], s.*kRealArrays[a], H5T_NATIVE_DOUBLE, H5T_FLOAT);
+    array("type", s.type, H5T_NATIVE_INT32, H5T_INTEGER);
+    array("origin", s.origin, H5T_NATIVE_INT32, H5T_INTEGER);
+    array("id", s.id, H5T_NATIVE_INT64, H5T_INTEGER);
+    array("slabs", slabs, H5T_NATIVE_DOUBLE, H5T_FLOAT);
+    std::vector<std::uint64_t> step, wall_corrections;
+    std::vector<double> dt;
+    array("step", step, H5T_NATIVE_UINT64, H5T_INTEGER);
+    array("dt", dt, H5T_NATIVE_DOUBLE, H5T_FLOAT);
+    array("wall_corrections", wall_corrections, H5T_NATIVE_UINT64, H5T_INTEGER);
+    if (step.size() != 1) fail(file, "/checkpoint/step", "expected one value");
+    if (dt.size() != 1) fail(file, "/checkpoint/dt", "expected one value");
+    if (wall_corrections.size() != 1)
+      fail(file, "/checkpoint/wall_corrections", "expected one value");
+    s.step = step[0];
+    s.dt = dt[0];
+    s.wall_corrections = wall_corrections[0];
+    precision = text(g.get(), "precision", "/checkpoint/precision");
   }
   {
     Handle run = open_group(f.get(), "run", "/run", file);
-    Handle text = open_group(run.get(), "text", "/run/text", file);
-    for (const std::string& name : member_names(text.get(), "/run/text", file))
-      c.texts[name] = read_text(text.get(), name, "/run/text/" + name, file);
+    Handle texts = open_group(run.get(), "text", "/run/text", file);
+    for (const std::string& name : member_names(texts.get(), "/run/text", file))
+      c.texts[name] = text(texts.get(), name, "/run/text/" + name);
     Handle numbers = open_group(run.get(), "numbers", "/run/numbers", file);
-    for (const std::string& name : member_names(numbers.get(), "/run/numbers", file))
-      c.numbers[name] = read_array<double>(numbers.get(), name, "/run/numbers/" + name,
-                                           H5T_NATIVE_DOUBLE, H5T_FLOAT, file);
+    for (const std::string& name : member_names(numbers.get(), "/run/numbers", file)) {
+      const std::string where = "/run/numbers/" + name;
+      c.numbers[name] =
+          read_array<double>(numbers.get(), name, where, H5T_NATIVE_DOUBLE, H5T_FLOAT, file);
+      sums.add(where, c.numbers[name]);
+    }
   }
+  sums.verify(table, file);
+  check_state(c.state, slabs, precision, file);
   return c;
 }
 

@@ -13,7 +13,11 @@
 //
 // File layout (every entry is a 1-D dataset; texts are uint8 byte arrays):
 //   /meta/format ("mesorock-checkpoint"), format_version ("1"), mesorock_version, git_commit,
-//         created_by, scene_path, scene_text (the scene verbatim), parameters (JSON text)
+//         created_by, scene_path, scene_text (the scene verbatim), parameters (JSON text),
+//         input_files (the caller's record of the files the scene names, with their checksums),
+//         checksums: "HEX PATH" a line for every other dataset (mesorock/checksum.h over the
+//         dataset's bytes as read), then the table's own as "HEX /meta/checksums"; written last
+//         and checked on read before any value is used: one flipped bit is named by its dataset
 //   /checkpoint/x y z vx vy vz vex vey vez fx fy fz rho bvf   float64 [N] (vex.. and bvf may be
 //         empty); a single-precision run's values widen to double exactly
 //   /checkpoint/type int32 [N], origin int32 [N], id int64 [N]
@@ -69,17 +73,21 @@ struct CheckpointFile {
   std::string scene_path;       // for messages
   std::string scene_text;       // the scene the run was started from, verbatim
   std::string parameters_json;  // backend, threads, options: provenance
+  // The files the scene names and their checksums (the caller's text, compared on resume).
+  std::string input_files;
   std::map<std::string, std::string> texts;
   std::map<std::string, std::vector<double>> numbers;
   // Filled by read_checkpoint only.
   std::string mesorock_version, git_commit;
 };
 
-inline constexpr int kCheckpointFormatVersion = 1;
+// 2: /meta/checksums (every dataset's checksum) and /meta/input_files.
+inline constexpr int kCheckpointFormatVersion = 2;
 
 // Writes atomically: on failure `path` is untouched (an older checkpoint there survives).
 void write_checkpoint(const std::filesystem::path& path, const CheckpointFile& checkpoint);
-// Reads and checks a checkpoint; IoError naming the file and the object on any problem.
+// Reads and checks a checkpoint; IoError naming the file and the object on any problem (a
+// dataset whose checksum differs from the one written with it, too).
 CheckpointFile read_checkpoint(const std::filesystem::path& path);
 
 }  // namespace mesorock::sim

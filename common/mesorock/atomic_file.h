@@ -1,5 +1,7 @@
 #pragma once
 // Write-to-temporary-then-rename, so a failed run never leaves a half-written output behind.
+#include <unistd.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -10,9 +12,11 @@
 
 namespace mesorock {
 
-// Temporary name next to the target (same filesystem, so rename is atomic).
+// Temporary name next to the target (same filesystem, so rename is atomic), unique to this
+// process (".NAME.PID.partial"): two processes writing one name never share a temporary.
 inline std::filesystem::path temporary_path_for(const std::filesystem::path& target) {
-  return target.parent_path() / ("." + target.filename().string() + ".partial");
+  return target.parent_path() /
+         ("." + target.filename().string() + "." + std::to_string(::getpid()) + ".partial");
 }
 
 // Calls write(tmp) with a temporary path, then renames it over `target`. On any exception the

@@ -108,9 +108,26 @@ void StagedOutputs::commit() {
     fs::rename(staging_dir_, dir_, ec);
     if (ec) throw IoError(dir_.string() + ": cannot rename staging folder: " + ec.message());
   } else {
+    // All or nothing: a final name that a rename cannot take (a folder where a file goes, or a
+    // file where a folder goes) is found before any output takes its name; a rename that fails
+    // anyway takes the outputs renamed before it back to their temporary names, so none of this
+    // set is left under a final name (the outputs they replaced are gone, as before).
     for (const Entry& e : entries_) {
+      const bool folder = fs::is_directory(e.temporary, ec);
+      if (fs::exists(e.target, ec) && fs::is_directory(e.target, ec) != folder)
+        throw IoError(e.target.string() + ": " +
+                      (folder ? "a file is in the way of this folder"
+                              : "a folder is in the way of this file") +
+                      ": no output was renamed into place");
+    }
+    for (std::size_t k = 0; k < entries_.size(); ++k) {
+      const Entry& e = entries_[k];
       fs::rename(e.temporary, e.target, ec);
-      if (ec) throw IoError(e.target.string() + ": cannot rename temporary file: " + ec.message());
+      if (!ec) continue;
+      const std::string why = ec.message();
+      for (std::size_t j = k; j-- > 0;) fs::rename(entries_[j].target, entries_[j].temporary, ec);
+      throw IoError(e.target.string() + ": cannot rename temporary file: " + why +
+                    ": no output was left under its final name");
     }
   }
   committed_ = true;

@@ -118,7 +118,11 @@ BenchResult run_bench(const BenchOptions& o) {
   } else if (o.case_name == "rock") {
     if (o.solid_file.empty())
       throw ConfigError("--case rock needs --solid FILE (a segmented image: rockprep's solid.h5)");
-    s = make_rock_benchmark(sim::read_solid_file(o.solid_file), o.particles, 7);
+    try {
+      s = make_rock_benchmark(sim::read_solid_file(o.solid_file), o.particles, 7);
+    } catch (const ConfigError& e) {  // "the rock image holds no pore voxels" named no file
+      throw ConfigError(o.solid_file + ": " + e.what());
+    }
   } else {
     throw ConfigError("--case must be bulk, porous or rock (got " + o.case_name + ")");
   }

@@ -30,7 +30,14 @@ struct RunRecord {
   bool has_text(const std::string& name) const { return texts.count(name) > 0; }
 
   std::string file;  // the checkpoint it came from (for messages)
+  // The files the scene names with their checksums (named_files_record), saved with the state.
+  std::string input_files;
 };
+
+// "HEX PATH" a line for each file the scene names (Scene::named_files), HEX its contents'
+// checksum (mesorock/checksum.h): a solid grid or particle file replaced between an interrupt
+// and the resume is found although the scene's text is the same.
+std::string named_files_record(const Scene& scene);
 
 inline std::filesystem::path checkpoint_path(const std::filesystem::path& out_dir) {
   return out_dir / "checkpoint.h5";
@@ -49,7 +56,9 @@ struct ResumePoint {
 };
 
 // Reads a checkpoint of `scene`. ConfigError when it was written for another scene text (the
-// file names the scene it belongs to); IoError when it is missing or damaged.
+// file names the scene it belongs to), when a file the scene names has changed since, or when its
+// step lies past the scene's stages or disagrees with its saved thermo rows; IoError when it is
+// missing or damaged (a checksum that does not match names the dataset).
 ResumePoint read_run_checkpoint(const std::filesystem::path& path, const Scene& scene);
 
 }  // namespace mesorock::pipeline

@@ -14,4 +14,10 @@ int interrupt_requested();
 // between the solver's set-up passes (Ctrl-C during the set-up of 4 M particles took 37 s).
 void throw_if_interrupted(const std::string& when);
 
+// For commands whose outputs all appear at the end (rockflow sweep, rockprep run), which poll no
+// flag: SIGINT or SIGTERM prints "TOOL: interrupted: SIGNAL: <kept>" on one line and ends the
+// process at once with exit 130 (SIGTERM ended them with 143 and no word). What they staged stays
+// under temporary names, which the next command on the folder removes (mesorock/output_lock.h).
+void exit_on_interrupt(const std::string& tool, const std::string& kept);
+
 }  // namespace mesorock::pipeline

@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "mesorock/errors.h"
+#include "mesorock/output_lock.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/capillary_pressure.h"
 #include "pipeline/flow/commands.h"
@@ -122,6 +123,8 @@ FlowCommand add_pc_command(CLI::App& rockflow) {
             if (!a->imbibition.empty())
               pc.imbibition = parse_number_list(a->imbibition, "pc: --imbibition");
             pc.run.sim = so;
+            const OutputLock lock(a->out);          // one owner per folder, before any work
+            lock.remove_earlier_record("pc.json");  // a failure must not leave the old one
             pc.out_dir = a->out;
             pc.write_states = !a->no_states;
             if (sub->count("--nonwetting-wall-A")) pc.nonwetting_wall_A = a->nonwetting_wall_A;

@@ -102,6 +102,10 @@ sim::Model two_liquid_model(const Scene& scene, RelpermSetup& s, const std::stri
 // --sweep: the absolute permeability and the viscosity from rockflow sweep's summary.
 void read_sweep_summary(RelpermSetup& s, const std::string& where) {
   const fs::path& path = s.c.sweep_json;
+  std::error_code ec;
+  // A folder read as "basic_filebuf::underflow" (an internal error), a FIFO blocked forever.
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
+    throw IoError(path.string() + ": not a regular file (a folder, FIFO or device) (--sweep)");
   std::ifstream in(path);
   if (!in) throw IoError(path.string() + ": cannot open the sweep summary (--sweep)");
   const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);

@@ -3,6 +3,8 @@
 #include <iostream>
 
 #include "mesorock/errors.h"
+#include "mesorock/output_lock.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/commands.h"
 #include "pipeline/flow/relperm.h"
@@ -85,9 +87,12 @@ FlowCommand add_relperm_command(CLI::App& rockflow) {
   sub->add_option("--axis", rc.sweep.axis, "flow axis x|y|z (default: the scene's body force)");
   sub->add_option("--types", a->types, "the wetting fluid's type (default: the driven type)");
   sub->add_option("--fluid-density", a->fluid_density,
-                  "the fluid's number density (default: the scene's)");
-  sub->add_option("--viscosity", a->viscosity, "the fluid's viscosity (for k in rc^2 and mD)");
-  sub->add_option("--viscosity-error", a->viscosity_error, "its standard error");
+                  "the fluid's number density (default: the scene's)")
+      ->check(positive_value());
+  sub->add_option("--viscosity", a->viscosity, "the fluid's viscosity (for k in rc^2 and mD)")
+      ->check(positive_value());
+  sub->add_option("--viscosity-error", a->viscosity_error, "its standard error")
+      ->check(non_negative_value());
   sub->add_option("--warmup", run.warmup_steps,
                   "steps before blocks start, per run (default: from the sample's median pore "
                   "when rockprep recorded it and the viscosity is known, at least 2000)");
@@ -117,6 +122,8 @@ FlowCommand add_relperm_command(CLI::App& rockflow) {
             check_memory_for(
                 scene, so,
                 rc.sweep.run.side_by_side ? static_cast<int>(rc.saturations.size() + 1) : 1);
+            const OutputLock lock(a->out);               // one owner per folder, before any work
+            lock.remove_earlier_record("relperm.json");  // a failure must not leave the old one
             rc.sweep.out_dir = a->out;
             rc.sweep.run.sim = so;
             rc.placement = parse_placement(a->placement);

@@ -1,4 +1,7 @@
 // `rockflow run SCENE`: a scene file's stages, with outputs, checkpoints and --resume.
+#include <optional>
+
+#include "mesorock/output_lock.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/commands.h"
 #include "pipeline/flow/interrupt.h"
@@ -38,6 +41,9 @@ FlowCommand add_run_command(CLI::App& rockflow) {
             const sim::SimulationOptions so = solver_options(a->flags, std::move(world));
             const Scene scene = load_scene(a->scene);
             check_memory_for(scene, so);  // before any particle: host and (CUDA) device memory
+            // One owner per folder (rank 0 writes the files of a decomposed run).
+            std::optional<OutputLock> lock;
+            if (!so.comm || so.comm->rank() == 0) lock.emplace(a->out);
             RunOptions ro;
             ro.out_dir = a->out;
             ro.sim = so;

@@ -19,7 +19,12 @@ void run_scene(const Scene& scene, const RunOptions& o) {
   if (o.resume) {
     if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
     resume = read_run_checkpoint(checkpoint_file, scene);
-    sim = sim::resume_simulation(scene.model, scene.box, resume->state, o.sim);
+    try {
+      sim = sim::resume_simulation(scene.model, scene.box, resume->state, o.sim);
+    } catch (const ConfigError& e) {  // "particle 2118 has type 65536 ..." named no file
+      throw ConfigError(checkpoint_file.string() + " (of " + scene.path.string() +
+                        "): " + e.what());
+    }
   } else {
     if (fs::exists(checkpoint_file))
       throw ConfigError(checkpoint_file.string() +
@@ -27,7 +32,11 @@ void run_scene(const Scene& scene, const RunOptions& o) {
                         "remove it (or choose another --out) to start afresh");
     sim::ParticleSet initial = build_initial_particles(scene);
     if (scene.stages.empty()) throw ConfigError(scene.path.string() + ": run: no stages");
-    sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
+    try {
+      sim = sim::make_simulation(scene.model, scene.box, initial, scene.stages.front().dt, o.sim);
+    } catch (const ConfigError& e) {  // "particle 3 ... starts inside a solid voxel" named no file
+      throw ConfigError(scene.path.string() + ": " + e.what());
+    }
   }
   // Every output of the run is staged by the runner: the CSV series grow under temporary names,
   // the end-of-run files are written under temporary names, and all take their final names

@@ -80,6 +80,8 @@ Runner::Runner(const Scene& scene, sim::Simulation& sim, const RunOptions& optio
   // A fresh run replaces the folder's outputs: the last run's completion record goes now, so a
   // failure cannot leave it beside this run's snapshots and checkpoint.
   if (context_.root && !resume) fs::remove(options.out_dir / "summary.json", ec);
+  // The files the scene names, hashed once: every checkpoint records them (compared on resume).
+  input_files_ = resume ? resume->record.input_files : named_files_record(scene);
   if (resume) {
     time_ = resume->record.number("time");
     earlier_run_seconds_ = resume->record.number("run_seconds");
@@ -206,6 +208,7 @@ void Runner::stop_on_signal(int signal, std::uint64_t step) {
 // Everything the outputs need to continue from this step (all outputs of it are written).
 void Runner::save_checkpoint() {
   RunRecord record;
+  record.input_files = input_files_;
   record.numbers["time"] = {time_};
   record.numbers["run_seconds"] = {run_seconds()};
   for (auto& o : outputs_) o->save(record);

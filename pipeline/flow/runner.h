@@ -136,6 +136,7 @@ class Runner {
   std::vector<std::unique_ptr<RunOutput>> outputs_;
   std::filesystem::path checkpoint_file_;
   std::uint64_t checkpoint_every_ = 0;
+  std::string input_files_;  // named_files_record of the scene, saved with every checkpoint
   bool progress_ = false;
   std::chrono::steady_clock::time_point t_start_, t_run_;
   double earlier_run_seconds_ = 0;  // spent before the checkpoint this run resumed from

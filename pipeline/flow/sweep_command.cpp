@@ -3,8 +3,11 @@
 #include <stdexcept>
 
 #include "mesorock/errors.h"
+#include "mesorock/output_lock.h"
+#include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/commands.h"
+#include "pipeline/flow/interrupt.h"
 #include "pipeline/flow/sweep.h"
 #include "pipeline/scene.h"
 
@@ -87,10 +90,14 @@ FlowCommand add_sweep_command(CLI::App& rockflow) {
   sweep->add_option("--axis", sc.axis, "flow axis x|y|z (default: the scene's body force)");
   sweep->add_option("--types", a->types,
                     "driven types, comma-separated (default: the scene's body-force types)");
-  sweep->add_option("--fluid-density", a->fluid_density,
-                    "the fluid's number density n_f (default: the scene's [[init]] density)");
-  sweep->add_option("--viscosity", a->viscosity, "the fluid's viscosity (skips the calibration)");
-  sweep->add_option("--viscosity-error", a->viscosity_error, "its standard error");
+  sweep
+      ->add_option("--fluid-density", a->fluid_density,
+                   "the fluid's number density n_f (default: the scene's [[init]] density)")
+      ->check(positive_value());
+  sweep->add_option("--viscosity", a->viscosity, "the fluid's viscosity (skips the calibration)")
+      ->check(positive_value());
+  sweep->add_option("--viscosity-error", a->viscosity_error, "its standard error")
+      ->check(non_negative_value());
   sweep->add_option("--calibration", sc.calibration, "calibration size tiny|small|full")
       ->check(CLI::IsMember({"tiny", "small", "full"}))
       ->capture_default_str();
@@ -126,6 +133,12 @@ FlowCommand add_sweep_command(CLI::App& rockflow) {
             check_memory_for(
                 scene, so,
                 sc.run.side_by_side ? static_cast<int>(parse_forces(a->forces).size()) : 1);
+            const OutputLock lock(a->out);             // one owner per folder, before any work
+            lock.remove_earlier_record("sweep.json");  // a failure must not leave the old one
+            exit_on_interrupt("rockflow",
+                              "nothing was written to " + a->out +
+                                  " (the outputs appear when the sweep completes; a finished "
+                                  "viscosity calibration stays cached): run the sweep again");
             sc.out_dir = a->out;
             sc.run.sim = so;
             sc.forces = parse_forces(a->forces);

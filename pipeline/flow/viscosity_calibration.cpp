@@ -98,6 +98,12 @@ CalibratedViscosity calibrated_viscosity(const FluidSpec& fluid, CalibrationSize
   std::snprintf(name, sizeof name, "eta-%016llx.json", static_cast<unsigned long long>(fnv1a(key)));
   CalibratedViscosity r;
   r.cache_file = cache_dir / name;
+  std::error_code ec;
+  // A folder at the entry's name read as "basic_filebuf::underflow" (an internal error).
+  if (fs::exists(r.cache_file, ec) && !fs::is_regular_file(r.cache_file, ec))
+    throw IoError(r.cache_file.string() +
+                  ": not a regular file where the viscosity cache keeps a calibration: remove it, "
+                  "or give --viscosity-cache another folder");
   if (fs::exists(r.cache_file)) {
     std::ifstream in(r.cache_file);
     nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
@@ -121,6 +127,18 @@ CalibratedViscosity calibrated_viscosity(const FluidSpec& fluid, CalibrationSize
     // Another key with the same hash, or a damaged file: calibrate again and replace it.
   }
   if (!(fluid.density > 0)) throw ConfigError("viscosity calibration: density must be positive");
+  // The cache must take the result, checked before the calibration's minutes: a cache that could
+  // not be written failed the sweep after calibrating, and the calibration was lost.
+  fs::create_directories(cache_dir, ec);
+  if (ec)
+    throw IoError(cache_dir.string() + ": cannot create the viscosity cache: " + ec.message());
+  try {
+    write_text_file(temporary_path_for(r.cache_file), "");
+  } catch (const IoError&) {
+    throw IoError(cache_dir.string() +
+                  ": the viscosity cache cannot be written (--viscosity-cache)");
+  }
+  fs::remove(temporary_path_for(r.cache_file), ec);
   const Plan p = plan_of(size);
   const double L[3] = {p.lxy, p.lxy, p.lz};
   BuiltSystem s = fluid.conservative == sim::ConservativeKind::MDPD
@@ -158,10 +176,6 @@ CalibratedViscosity calibrated_viscosity(const FluidSpec& fluid, CalibrationSize
               {"temperature", m.temperature},
               {"mesorock_version", kVersion},
               {"git_commit", kGitCommit}};
-  std::error_code ec;
-  fs::create_directories(cache_dir, ec);
-  if (ec)
-    throw IoError(cache_dir.string() + ": cannot create the viscosity cache: " + ec.message());
   write_text_atomically(r.cache_file, r.record.dump(2) + "\n");
   return r;
 }

@@ -1,6 +1,7 @@
 #include "pipeline/prep/flooding_scene.h"
 
 #include <charconv>
+#include <cstdio>
 #include <sstream>
 
 namespace mesorock::pipeline::prep {
@@ -21,8 +22,24 @@ std::string vec(const std::array<double, 3>& v) {
   return "[" + num(v[0]) + ", " + num(v[1]) + ", " + num(v[2]) + "]";
 }
 
+// A TOML basic string: a '"' or '\' in a name (the --out folder's) gave a scene that rockflow
+// could not parse; control characters are written as \uXXXX.
 std::string quoted(const std::string& s) {
-  return "\"" + s + "\"";
+  std::string out = "\"";
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (c < 0x20 || c == 0x7f) {
+      char u[8];
+      std::snprintf(u, sizeof u, "\\u%04x", c);
+      out += u;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
 }
 
 std::string list(const std::vector<std::string>& names) {

@@ -20,12 +20,14 @@
 #include "mesorock/cache.h"
 #include "mesorock/errors.h"
 #include "mesorock/number_text.h"
+#include "mesorock/output_lock.h"
 #include "mesorock/version.h"
 #include "packing/flooding.h"
 #include "packing/pack.h"
 #include "packing/permeability.h"
 #include "packing/sink.h"
 #include "pipeline/cli_checks.h"
+#include "pipeline/flow/interrupt.h"
 #include "pipeline/prep/common.h"
 #include "pipeline/prep/flooding_scene.h"
 #include "pipeline/prep/packing_common.h"
@@ -968,6 +970,12 @@ void print_summary(const RunContext& c, const RunLayout& l, const ParticleRoles&
 int run_run(const RunArgs& a) {
   const auto start = std::chrono::steady_clock::now();
   const RunPlan plan = plan_run(a);
+  // One owner per folder, before the load: a second rockprep run on it is refused at once.
+  const OutputLock lock(a.out);
+  lock.remove_earlier_record("run.json");  // a failure must not leave the old one
+  exit_on_interrupt("rockprep", "nothing was written to " + a.out +
+                                    " (the outputs appear when the set-up is complete): run it "
+                                    "again");
   RunTiles tiles;
   if (!a.tiles_db.empty() && fs::exists(a.tiles_db))
     tiles.db = tiledb::read_tile_database(a.tiles_db);

@@ -66,4 +66,24 @@ TEST(RockflowCli, BenchJsonHasTheAgreedFields) {
     EXPECT_NE(r.out.find(k), std::string::npos) << k << " in " << r.out;
 }
 
+// Issue 58, item 16: CLI11's usage errors were two lines without "rockflow:", and a range check
+// wrote the largest double with all its 309 digits ("--threads -1"). One line now, in the form of
+// every other error.
+TEST(RockflowCli, UsageErrorsAreOneLineNamingTheOption) {
+  for (const auto& [args, what] :
+       {std::pair<std::string, std::string>{"bench --threads -1", "--threads: "},
+        {"run x.toml --runaway-displacement -1", "--runaway-displacement: "},
+        {"run x.toml --checkpoint-every -5", "--checkpoint-every: "},
+        {"run", "scene"},
+        {"run x.toml --bogus", "--bogus"},
+        {"", "subcommand"}}) {
+    const CommandResult r = rockflow(args);
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
+    EXPECT_EQ(lines(r.err), 1) << args << ": " << r.err;
+    EXPECT_EQ(r.err.rfind("rockflow: error: ", 0), 0u) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << args << ": " << r.err;
+    EXPECT_LT(r.err.size(), 200u) << args << ": " << r.err;
+  }
+}
+
 }  // namespace

@@ -12,10 +12,12 @@
 #include <string>
 
 #include "mesorock/errors.h"
+#include "pipeline/flow/checkpoint_io.h"
 #include "pipeline/scene.h"
 #include "sim/checkpoint.h"
 #include "sim/memory_budget.h"
 #include "sim/simulation.h"
+#include "sim/solid_grid.h"
 #include "support/test_support.h"
 
 namespace fs = std::filesystem;
@@ -79,6 +81,20 @@ TEST(MemoryGuard, AHugeInitCountIsRefusedBeforeAnyParticle) {
   TempDir dir;
   const fs::path scene = write_scene(dir, scene_with(random_block("2147483647")));
   const Timed t = rockflow_capped("run " + shell_quote(scene.string()) + " --out out", dir);
+  expect_refused(t, "init[0].count");
+  EXPECT_NE(t.r.err.find("host memory"), std::string::npos) << t.r.err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+// Issue 58, item 2: 200,000 particles in a 5^3 box (rho = 1600) passed the guard's 406 bytes a
+// particle, which assume about 15 neighbour pairs each; the half list grew past 10 GB and the
+// process aborted on std::bad_alloc (exit 134) after 18 s under a 4 GB cap. The list is sized
+// from the density now: refused before any particle.
+TEST(MemoryGuard, ADenseBoxIsRefusedBeforeAnyParticleUnderACap) {
+  TempDir dir;
+  const fs::path scene = write_scene(dir, scene_with(random_block("200000"), 5));
+  const Timed t = rockflow_capped("run " + shell_quote(scene.string()) + " --out out --threads 1",
+                                  dir, 4000000);
   expect_refused(t, "init[0].count");
   EXPECT_NE(t.r.err.find("host memory"), std::string::npos) << t.r.err;
   EXPECT_FALSE(fs::exists(dir / "out"));
@@ -217,6 +233,53 @@ TEST(ErrorsNameTheFile, CheckpointHoldingNaN) {
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("out/checkpoint.h5: /checkpoint/x"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("NaN"), std::string::npos) << r.err;
+}
+
+// Issue 58, item 14: two errors of the solver's input check named no file. A fluid particle of
+// the scene inside a solid voxel names the scene; a particle type out of range in a checkpoint
+// names the checkpoint.
+TEST(ErrorsNameTheFile, AParticleInTheSolidNamesTheScene) {
+  namespace ms = mesorock::sim;
+  TempDir dir;
+  ms::SolidMask mask;
+  mask.dims = {4, 4, 4};
+  mask.solid.assign(64, 0);
+  for (int k = 0; k < 16; ++k) mask.solid[static_cast<std::size_t>(k)] = 1;  // the z < 1 layer
+  ms::write_solid_file(dir / "solid.h5", mask, "test", "{}");
+  std::string text = scene_with(random_block("300"), 4);
+  text += "[solid]\nfile = \"solid.h5\"\n";
+  const fs::path scene = write_scene(dir, text);
+  const CommandResult r = mesorock::test::run_command(
+      "cd " + shell_quote(dir.path().string()) + " && " + shell_quote(MESOROCK_ROCKFLOW) + " run " +
+          shell_quote(scene.string()) + " --out out --threads 1",
+      dir.path());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(scene.string() + ": particle "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("starts inside a solid voxel"), std::string::npos) << r.err;
+}
+
+TEST(ErrorsNameTheFile, ACheckpointParticleOfAnUnknownTypeNamesTheCheckpoint) {
+  namespace ms = mesorock::sim;
+  namespace mp = mesorock::pipeline;
+  TempDir dir;
+  const fs::path scene_path = write_scene(dir, scene_with(random_block("300"), 4));
+  const mp::Scene scene = mp::load_scene(scene_path);
+  auto sim =
+      ms::make_simulation(scene.model, scene.box, mp::build_initial_particles(scene), 0.01, {});
+  ms::SimulationState state = sim->state();
+  state.type[11] = 65536;
+  fs::create_directories(dir / "out");
+  mp::RunRecord record;
+  record.numbers["time"] = {0.0};
+  record.numbers["run_seconds"] = {0.0};
+  mp::write_run_checkpoint(dir / "out" / "checkpoint.h5", state, scene, "{}", record);
+  const CommandResult r = mesorock::test::run_command(
+      "cd " + shell_quote(dir.path().string()) + " && " + shell_quote(MESOROCK_ROCKFLOW) + " run " +
+          shell_quote(scene_path.string()) + " --out out --resume --threads 1",
+      dir.path());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("out/checkpoint.h5 (of "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("type 65536"), std::string::npos) << r.err;
 }
 
 }  // namespace

@@ -17,6 +17,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "pipeline/flow/checkpoint_io.h"
@@ -169,7 +170,8 @@ TEST_F(Resume, CtrlCLeavesACheckpointAndExits130) {
   const auto checkpoint = mesorock::sim::read_checkpoint(out / "checkpoint.h5");
   EXPECT_GT(checkpoint.state.step, 0u);
   EXPECT_FALSE(fs::exists(out / "final.h5"));
-  EXPECT_FALSE(fs::exists(out / ".thermo.csv.partial"));
+  for (const auto& e : fs::directory_iterator(out))  // temporaries are .NAME.PID.partial
+    EXPECT_EQ(e.path().filename().string().find(".partial"), std::string::npos) << e.path();
 
   // A fresh run into the same folder would discard the checkpoint: refused.
   const CommandResult fresh =
@@ -200,6 +202,27 @@ TEST_F(Resume, CtrlCLeavesACheckpointAndExits130) {
   EXPECT_EQ(broken.exit_code, 2) << broken.err;
   EXPECT_NE(broken.err.find("checkpoint.h5: /run/text/regions.last"), std::string::npos)
       << broken.err;
+
+  // A step past the scene's end (issue 58: 10^12 resumed to "done" with 63 of 200 rows), and a
+  // step the saved thermo rows do not reach: refused naming the checkpoint and the dataset.
+  for (const auto& [name, step, dataset] :
+       {std::tuple<const char*, std::uint64_t, const char*>{"past_end", 1000000000000ull,
+                                                            "/checkpoint/step"},
+        {"ahead_of_rows", checkpoint.state.step + 50, "/run/text/thermo.csv"}}) {
+    const fs::path copy = *dir_ / name;
+    fs::copy(out, copy, fs::copy_options::recursive);
+    namespace mp = mesorock::pipeline;
+    const mp::Scene scene = mp::load_scene(scene_);
+    mp::ResumePoint point = mp::read_run_checkpoint(copy / "checkpoint.h5", scene);
+    point.state.step = step;
+    mp::write_run_checkpoint(copy / "checkpoint.h5", point.state, scene, "{}", point.record);
+    const CommandResult refused =
+        mesorock::test::run_command(rockflow_run(scene_, copy, " --resume"), dir_->path());
+    EXPECT_EQ(refused.exit_code, 2) << name << ": " << refused.err;
+    EXPECT_NE(refused.err.find("checkpoint.h5: " + std::string(dataset)), std::string::npos)
+        << name << ": " << refused.err;
+    EXPECT_FALSE(fs::exists(copy / "final.h5")) << name;
+  }
 
   const CommandResult r =
       mesorock::test::run_command(rockflow_run(scene_, out, " --resume"), dir_->path());
@@ -320,6 +343,61 @@ TEST(ResumeCli, ResumeWithoutCheckpointIsBadInput) {
       mesorock::test::run_command(rockflow_run(scene, dir / "none", " --resume"), dir.path());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("no checkpoint here"), std::string::npos) << r.err;
+}
+
+// Issue 58, item 11: a particle file the scene names, replaced between the interrupt and the
+// resume, was loaded silently (the scene's text was the same). Its checksum is in the checkpoint:
+// the resume is refused naming the file; the file as it was resumes.
+TEST(ResumeCli, AChangedFileOfTheSceneIsRefused) {
+  namespace ms = mesorock::sim;
+  TempDir dir;
+  ms::ParticleSet p;
+  std::int64_t next = 0;
+  for (int k = 0; k < 300; ++k) {
+    p.x.push_back(0.1 + 3.8 * ((k * 37) % 300) / 300.0);
+    p.y.push_back(0.1 + 3.8 * ((k * 91) % 300) / 300.0);
+    p.z.push_back(0.1 + 3.8 * k / 300.0);
+    p.vx.push_back(0), p.vy.push_back(0), p.vz.push_back(0);
+    p.type.push_back(0);
+    p.id.push_back(next++);
+  }
+  ms::ParticleFileMeta meta;
+  meta.type_names = {"water"};
+  meta.box.hi = {4, 4, 4};
+  ms::write_particle_file(dir / "particles.h5", p, meta);
+  const fs::path scene = dir / "scene.toml";
+  std::ofstream(scene)
+      << "name = \"files\"\nseed = 1\n[box]\nlo = [0.0, 0.0, 0.0]\nhi = [4.0, 4.0, 4.0]\n"
+         "boundary = [\"periodic\", \"periodic\", \"periodic\"]\n"
+         "[model]\nconservative = \"mdpd\"\ndensity_kernel = \"warren\"\nrd = 0.75\n"
+         "thermostat = true\nkBT = 1.0\n[[types]]\nname = \"water\"\n"
+         "[[pairs]]\ntypes = [\"water\", \"water\"]\nA = -40.0\nB = 25.0\ngamma = 4.5\n"
+         "[[init]]\nkind = \"file\"\nfile = \"particles.h5\"\n"
+         "[[run]]\nsteps = 200000\ndt = 0.01\n[output]\nthermo_every = 10\n";
+  const fs::path out = dir / "out";
+  bool was_running = false;
+  const int status = run_and_signal(scene, out, dir / "int.err", SIGINT, &was_running);
+  ASSERT_TRUE(was_running) << mesorock::test::read_file(dir / "int.err");
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 130)
+      << mesorock::test::read_file(dir / "int.err");
+  fs::copy_file(dir / "particles.h5", dir / "kept.h5");
+  p.vx[7] = 0.5;  // another file at the same path
+  ms::write_particle_file(dir / "particles.h5", p, meta);
+  const std::string resume = mesorock::test::shell_quote(MESOROCK_ROCKFLOW) + " run " +
+                             mesorock::test::shell_quote(scene.string()) + " --out " +
+                             mesorock::test::shell_quote(out.string()) + " --threads 1 --resume";
+  const CommandResult changed = mesorock::test::run_command(resume, dir.path());
+  EXPECT_EQ(changed.exit_code, 2) << changed.err;
+  EXPECT_NE(changed.err.find("particles.h5 has changed since the checkpoint"), std::string::npos)
+      << changed.err;
+  EXPECT_NE(changed.err.find("checkpoint.h5"), std::string::npos) << changed.err;
+  fs::rename(dir / "kept.h5", dir / "particles.h5");
+  // Back as it was: the resume passes the check (it is stopped again after its next checkpoint;
+  // the run is long on purpose).
+  const CommandResult same = mesorock::test::run_command(
+      "timeout --preserve-status -s INT 2 " + resume + " --checkpoint-every 10", dir.path());
+  EXPECT_EQ(same.exit_code, 130) << same.err;
+  EXPECT_NE(same.err.find("resumed at step"), std::string::npos) << same.err;
 }
 
 }  // namespace

@@ -3,7 +3,9 @@
 // never settles, and `rockflow sweep` end to end at a tiny size (outputs, units, the viscosity
 // cache reused by a second sweep).
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -410,6 +412,63 @@ TEST(SweepCli, ASampleWithoutSolidIsRefused) {
   EXPECT_NE(r.err.find("bulk.toml"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("MPS/s"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "o" / "sweep.json"));
+}
+
+// Issue 58, item 17: --fluid-density 0 was taken as "not given" (NaN was refused), and
+// --viscosity-error -1 was accepted and printed as "mu = 7 +- -1". Refused at parse time.
+TEST(SweepCli, ZeroDensityOrANegativeErrorIsRefusedBeforeAnyStep) {
+  TempDir dir;
+  const fs::path scene = dir / "slit.toml";
+  std::ofstream(scene) << mesorock::test::kTinySlit;
+  const std::string base = sweep_into_o(scene, dir) + " --forces 0.01 --threads 1";
+  for (const auto& [args, what] :
+       {std::pair<std::string, std::string>{" --viscosity 7 --fluid-density 0", "--fluid-density"},
+        {" --viscosity 7 --viscosity-error -1", "--viscosity-error"},
+        {" --viscosity 0", "--viscosity"},
+        {" --viscosity 7 --fluid-density nan", "--fluid-density"}}) {
+    const CommandResult r = mesorock::test::run_command(base + args, dir.path());
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << args << ": " << r.err;
+    EXPECT_EQ(r.err.find("MPS/s"), std::string::npos) << args << ": it ran: " << r.err;
+  }
+}
+
+// Issue 58, items 6, 9 and 13: an --out that cannot be made, or a viscosity cache that cannot be
+// written, failed the sweep only after all its work; a folder where a JSON file is expected
+// (relperm --sweep) was an internal error ("basic_filebuf::underflow"); a FIFO as
+// the scene or as relperm --sweep blocked forever. Each is refused at once, exit 2, naming it.
+TEST(SweepCli, UnwritableFoldersAndInputsThatAreNoFilesAreRefusedAtOnce) {
+  TempDir dir;
+  const fs::path scene = dir / "slit.toml";
+  std::ofstream(scene) << mesorock::test::kTinySlit;
+  std::ofstream(dir / "afile") << "x";
+  const std::string rockflow = mesorock::test::shell_quote(MESOROCK_ROCKFLOW);
+  const std::string s = mesorock::test::shell_quote(scene.string());
+  ASSERT_EQ(mkfifo((dir / "fifo").c_str(), 0644), 0);
+  fs::create_directories(dir / "adir");
+  const std::pair<std::string, std::string> cases[] = {
+      {"sweep " + s + " --forces 0.01 --viscosity 7 --out afile/o", "afile is a file"},
+      {"sweep " + s + " --forces 0.01 --calibration tiny --viscosity-cache afile/c --out o1",
+       "afile/c"},
+      {"sweep fifo --forces 0.01 --viscosity 7 --out o2", "fifo: not a regular file"},
+      {"run fifo --out o3", "fifo: not a regular file"},
+      {"relperm " + s + " --saturations 0.5 --placement random --sweep adir --out o4",
+       "adir: not a regular file"},
+      {"relperm " + s + " --saturations 0.5 --placement random --sweep fifo --out o5",
+       "fifo: not a regular file"}};
+  for (const auto& [args, what] : cases) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const CommandResult r =
+        mesorock::test::run_command("cd " + mesorock::test::shell_quote(dir.path().string()) +
+                                        " && timeout 60 " + rockflow + " " + args + " --threads 1",
+                                    dir.path());
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos) << args << ": " << r.err;
+    EXPECT_EQ(r.err.find("internal error"), std::string::npos) << args << ": " << r.err;
+    EXPECT_LT(seconds, 10.0) << args << ": refused only after the work";
+  }
 }
 
 }  // namespace

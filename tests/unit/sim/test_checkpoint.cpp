@@ -5,7 +5,10 @@
 // refused. One body for every backend.
 #include <gtest/gtest.h>
 
+#include <hdf5.h>
+
 #include <cstring>
+#include <fstream>
 
 #include "backends.h"
 #include "mesorock/errors.h"
@@ -149,6 +152,71 @@ TEST(CheckpointFile, MissingOrForeignFilesAreIoErrors) {
     ms::read_checkpoint(dir / "text.h5");
   } catch (const mesorock::IoError& e) {
     EXPECT_NE(std::string(e.what()).find("text.h5"), std::string::npos) << e.what();
+  }
+}
+
+// The byte offset in the file of a contiguous dataset's data.
+haddr_t data_offset(const std::filesystem::path& file, const std::string& dataset) {
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t d = H5Dopen2(f, dataset.c_str(), H5P_DEFAULT);
+  const haddr_t at = d >= 0 ? H5Dget_offset(d) : HADDR_UNDEF;
+  if (d >= 0) H5Dclose(d);
+  H5Fclose(f);
+  return at;
+}
+
+// Issue 58: a flipped mantissa bit, a changed velocity, a changed thermo digit or step all
+// resumed with exit 0. Each dataset carries a checksum now: one bit flipped anywhere in the data
+// of any of these datasets is refused, naming the dataset.
+TEST(CheckpointFile, OneFlippedBitInAnyDatasetIsRefusedNamingIt) {
+  System s = mixed(ms::Precision::Double);
+  auto sim = ms::make_simulation(s.model, s.box, s.particles, 0.01, ms::SimulationOptions{});
+  sim->run(3);
+  mesorock::test::TempDir dir;
+  ms::CheckpointFile file;
+  file.state = sim->state();
+  file.created_by = "test";
+  file.scene_text = "scene";
+  file.input_files = "0123456789abcdef solid.h5\n";
+  file.texts["thermo.csv"] = "step,T\n0,1.0\n";
+  file.numbers["series"] = {1.5, -2.25};
+  const std::filesystem::path good = dir / "good.h5";
+  ms::write_checkpoint(good, file);
+  ASSERT_NO_THROW(ms::read_checkpoint(good));
+  const std::string bytes = mesorock::test::read_file(good);
+  struct Flip {
+    const char* dataset;
+    std::size_t byte;
+    int bit;
+  };
+  const Flip flips[] = {{"/checkpoint/x", 8 * 17 + 2, 3},   // a mantissa bit
+                        {"/checkpoint/vx", 8 * 40 + 7, 6},  // an exponent bit
+                        {"/checkpoint/fz", 8 * 5, 0},       // the lowest bit
+                        {"/checkpoint/id", 8 * 9, 1},       // a duplicated-looking id
+                        {"/checkpoint/origin", 4 * 3, 0},   // still a permutation? no matter
+                        {"/checkpoint/step", 0, 3},         // step 3 -> 11
+                        {"/checkpoint/type", 4 * 100, 0},   // another type
+                        {"/checkpoint/bvf", 8 * 2 + 6, 4},  // the wall model's state
+                        {"/run/text/thermo.csv", 9, 0},     // a thermo digit
+                        {"/run/numbers/series", 8 + 3, 5},  // a saved series
+                        {"/meta/scene_text", 2, 1},         // the scene's text
+                        {"/meta/input_files", 0, 0},        // a recorded input checksum
+                        {"/meta/checksums", 3, 0}};         // the table itself
+  for (const Flip& flip : flips) {
+    const haddr_t at = data_offset(good, flip.dataset);
+    ASSERT_NE(at, HADDR_UNDEF) << flip.dataset;
+    std::string damaged = bytes;
+    ASSERT_LT(at + flip.byte, damaged.size()) << flip.dataset;
+    damaged[at + flip.byte] = static_cast<char>(damaged[at + flip.byte] ^ (1 << flip.bit));
+    const std::filesystem::path bad = dir / "bad.h5";
+    std::ofstream(bad, std::ios::binary) << damaged;
+    try {
+      ms::read_checkpoint(bad);
+      ADD_FAILURE() << flip.dataset << ": a flipped bit was read without a word";
+    } catch (const mesorock::IoError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(std::string("bad.h5: ") + flip.dataset + ":"), std::string::npos) << what;
+    }
   }
 }
 
