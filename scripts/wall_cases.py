@@ -78,7 +78,7 @@ def write_npy_bool(path, pore, shape):
     return data
 
 
-def make_geometry(case, size, rpv, step, pore_vox=None):
+def make_geometry(case, size, rpv, step, pore_vox=None, width_rc=4.0):
     """The image of a case: (shape zyx, pore(z, y, x), description dict). pore_vox overrides the
     size's pore (h, a, D in voxels; spheres: the cell L, the radius scaled with it)."""
     p = SIZES[size][case]
@@ -92,7 +92,7 @@ def make_geometry(case, size, rpv, step, pore_vox=None):
     if case == "slit":
         h = p
         H = h + t
-        ny = max(4, math.ceil(4.0 / rpv - 1e-9))
+        ny = max(4, math.ceil(width_rc / rpv - 1e-9))  # the slit's free width (y)
         return (H, ny, nx), (lambda z, y, x: lo <= z < lo + h), \
             {"h_vox": h, "H_vox": H, "solid_vox": t}
     if case == "stair":
@@ -281,7 +281,7 @@ def run_case(a, case, rpv):
     name = f"{case}_r{rpv:g}" + (f"_p{pv}" if pv else "")
     d = os.path.join(a.out, name)
     os.makedirs(d, exist_ok=True)
-    shape, pore, geo = make_geometry(case, a.size, rpv, a.step, pv)
+    shape, pore, geo = make_geometry(case, a.size, rpv, a.step, pv, a.width_rc)
     img = os.path.join(d, "image.npy")
     data = write_npy_bool(img, pore, shape)
     nz, ny, nx = shape
@@ -435,6 +435,8 @@ def main():
     p.add_argument("--pore-rc", type=float, default=0.0,
                    help="the same in rc: round(PORE_RC / rc per voxel) voxels at each rc per voxel "
                         "(the same pore in rc at every resolution)")
+    p.add_argument("--width-rc", type=float, default=4.0,
+                   help="slit: its free width along y in rc (more fluid, less noise; default 4)")
     p.add_argument("--step", type=int, default=2, help="stair: voxels in y per one-voxel step in z")
     p.add_argument("--bin", default=os.path.join(root, "build", "bin"),
                    help="folder of rockprep and rockflow")
@@ -491,7 +493,8 @@ def main():
     summary_path = os.path.join(a.out, "wall_cases.json")
     header = {"command": sys.argv, "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
               "host_cpus": os.cpu_count(), "bin": os.path.abspath(a.bin), "size": a.size,
-              "step": a.step, "pore_vox": a.pore_vox, "pore_rc": a.pore_rc, "seed": a.seed,
+              "step": a.step, "pore_vox": a.pore_vox, "pore_rc": a.pore_rc, "width_rc": a.width_rc,
+              "seed": a.seed,
               "viscosity": [a.viscosity, a.viscosity_error],
               "sweep_args": a.sweep_args, "lbm_tau": a.lbm_tau}
     records, failed = [], 0
