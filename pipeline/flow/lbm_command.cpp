@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -16,6 +15,7 @@
 #include "lbm/lattice.h"
 #include "mesorock/atomic_file.h"
 #include "mesorock/errors.h"
+#include "mesorock/output_lock.h"
 #include "pipeline/cli_checks.h"
 #include "pipeline/exit_codes.h"
 #include "pipeline/flow/commands.h"
@@ -108,27 +108,14 @@ std::vector<int> parse_refines(const std::string& text) {
   return out;
 }
 
-// Before any work: the mask is a regular file, the output folder can be written, and an earlier
-// complete record is gone (a script waiting for lbm.json must not read the last run's).
-void check_before_work(const LbmArgs& a) {
-  namespace fs = std::filesystem;
+// Before any work: the mask is a regular file (a FIFO would block), the output folder is this
+// process's alone and can be written (OutputLock), and an earlier complete record is gone (a
+// script waiting for lbm.json must not read the last run's).
+void check_mask_file(const LbmArgs& a) {
   std::error_code ec;
-  if (!fs::exists(a.mask, ec)) throw IoError(a.mask + ": no such file");
-  if (!fs::is_regular_file(a.mask, ec))
+  if (!std::filesystem::exists(a.mask, ec)) throw IoError(a.mask + ": no such file");
+  if (!std::filesystem::is_regular_file(a.mask, ec))
     throw IoError(a.mask + ": not a regular file (a folder, FIFO or device)");
-  const fs::path out(a.out);
-  fs::create_directories(out, ec);
-  if (ec || !fs::is_directory(out))
-    throw IoError(a.out + ": cannot create output folder" + (ec ? ": " + ec.message() : ""));
-  const fs::path probe = out / (".lbm-write-test." + std::to_string(getpid()));
-  {
-    std::ofstream test(probe);
-    if (!(test << "x") || !(test.flush()))
-      throw IoError(a.out + ": cannot write in the output folder");
-  }
-  fs::remove(probe, ec);
-  if (fs::exists(out / "lbm.json", ec) && !fs::remove(out / "lbm.json", ec))
-    throw IoError((out / "lbm.json").string() + ": cannot remove the earlier result");
 }
 
 lbm::Backend chosen_backend(const std::string& name) {
@@ -239,7 +226,9 @@ FlowCommand add_lbm_command(CLI::App& rockflow) {
         o.base.precision =
             a->precision == "single" ? lbm::Precision::Single : lbm::Precision::Double;
         o.base.backend = chosen_backend(a->backend);
-        check_before_work(*a);
+        check_mask_file(*a);
+        const OutputLock lock(a->out);  // one owner per folder, before any work
+        lock.remove_earlier_record("lbm.json");
         install_interrupt_handlers();  // Ctrl-C: exit 130 within a check, no lbm.json
         const sim::SolidMask image = sim::read_solid_file(a->mask);
         std::unique_ptr<LbmProgressLine> line;

@@ -11,12 +11,15 @@
 //    "Where the no-slip plane lies"). kNoSlipWallA is where it crosses zero. Flooding set-ups
 //    keep their wetting values (-30, -40): there the wall affinity is the contact angle.
 // 2. Resolved throats: the resolution study on real rock (docs/accuracy.md, "Resolution on real
-//    rock") compared rockflow sweep with rockflow lbm on Berea and Leopard crops. The error
-//    follows the critical pore diameter along the flow axis (the largest sphere that passes
-//    through, voxel::critical_pore_diameter), not the median pore size: -24% at 2.0 rc, -10% at
-//    2.24 rc, -3.5% at 2.83 rc, +3.8% at 3.0 rc. rockprep run reports it in rc, warns below
-//    kResolvedThroatRc, and, with no length scale given, picks the rc per voxel that reaches it
-//    (at least 0.5).
+//    rock") compared rockflow sweep with rockflow lbm --refine 2 on Berea and Leopard crops. The
+//    error follows the critical pore diameter along the flow axis (the largest sphere that
+//    passes through, voxel::critical_pore_diameter), not the median pore size: -24% at 2.0 rc,
+//    -10% at 2.24 rc, -3.5% at 2.83 rc, +3.8% at 3.0 rc against refine 2. Refine 2 is 12-14%
+//    above the converged k (docs/lbm.md, the ladder): against it the same sweeps read about
+//    +11% at resolved scales (Berea 50^3: +10% at 2.83 rc, +12% at 5.7 rc), so this rule, fitted
+//    to refine 2, is still to be re-derived (issue 52). rockprep run reports the diameter in rc,
+//    warns below kResolvedThroatRc, and, with no length scale given, picks the rc per voxel that
+//    reaches it (at least 0.5).
 #include <algorithm>
 #include <array>
 #include <cmath>
