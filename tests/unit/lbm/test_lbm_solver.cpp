@@ -15,24 +15,14 @@
 #include "mesorock/errors.h"
 #include "sim/solid_grid.h"
 #include "support/test_support.h"
+#include "unit/lbm/masks.h"
 
 namespace {
 
 namespace mp = mesorock::lbm;
 namespace ms = mesorock::sim;
 
-// A mask of nx x ny x nz voxels, solid where solid(i, j, k) holds.
-ms::SolidMask make_mask(
-    std::int64_t nx, std::int64_t ny, std::int64_t nz,
-    const std::function<bool(std::int64_t, std::int64_t, std::int64_t)>& solid) {
-  ms::SolidMask m;
-  m.dims = {nx, ny, nz};
-  m.solid.assign(static_cast<std::size_t>(nx * ny * nz), 0);
-  for (std::int64_t k = 0; k < nz; ++k)
-    for (std::int64_t j = 0; j < ny; ++j)
-      for (std::int64_t i = 0; i < nx; ++i) m.solid[m.index(i, j, k)] = solid(i, j, k) ? 1 : 0;
-  return m;
-}
+using mesorock::test::make_mask;
 
 // Plates normal to z: pore layers k < h, solid layers h <= k < H; flow along x.
 ms::SolidMask slit(std::int64_t h, std::int64_t H) {
