@@ -14,6 +14,7 @@
 #include "lbm/steps.h"
 #include "mesorock/errors.h"
 #include "sim/memory_budget.h"
+#include "sim/simulation.h"
 
 namespace mesorock::lbm {
 
@@ -29,11 +30,10 @@ double bytes_per_node(Precision p) {
   return 2 * kQ * real + 18 * 4;
 }
 
-#ifndef MESOROCK_HAVE_CUDA
+// The solver's own answer (sim/simulation.h): one device query for both solvers.
 std::string cuda_unavailable_reason() {
-  return "this build has no CUDA backend";
+  return sim::cuda_unavailable_reason();
 }
-#endif
 
 namespace {
 
@@ -288,7 +288,7 @@ LbmResult lbm_permeability(const sim::SolidMask& mask, const LbmOptions& o) {
   check_inputs(mask, o);
   if (o.backend == Backend::CUDA) {
     const std::string why = cuda_unavailable_reason();
-    if (!why.empty()) throw DeviceError("lbm: backend cuda: " + why);
+    if (!why.empty()) throw DeviceError("lbm: " + why);
   }
   LbmResult r;
   r.backend = o.backend;

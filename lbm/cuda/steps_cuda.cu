@@ -171,15 +171,4 @@ template std::unique_ptr<StepRunner<float>> make_cuda_runner<float>(
 template std::unique_ptr<StepRunner<double>> make_cuda_runner<double>(
     const std::vector<std::uint32_t>&, const std::vector<double>&, const StepParams<double>&);
 
-std::string cuda_unavailable_reason() {
-  int count = 0;
-  const cudaError_t e = cudaGetDeviceCount(&count);
-  if (e != cudaSuccess) {
-    cudaGetLastError();
-    return std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
-  }
-  if (count == 0) return "no CUDA device found";
-  return "";
-}
-
 }  // namespace mesorock::lbm

@@ -122,7 +122,7 @@ lbm::Backend chosen_backend(const std::string& name) {
   if (name == "cpu") return lbm::Backend::CPU;
   const std::string why = lbm::cuda_unavailable_reason();
   if (name == "cuda") {
-    if (!why.empty()) throw DeviceError("lbm: --backend cuda: " + why);
+    if (!why.empty()) throw DeviceError("lbm: " + why);
     return lbm::Backend::CUDA;
   }
   return why.empty() ? lbm::Backend::CUDA : lbm::Backend::CPU;
